@@ -1,0 +1,217 @@
+//! Planar walls by mirrored ghost particles.
+//!
+//! For every fluid particle closer than one support radius to a wall, a ghost
+//! is written into the reserved tail of the particle arrays: its position is
+//! the mirror image, and it copies the source's mass, density and pressure
+//! (zero normal pressure gradient). Its velocity follows the wall's rule
+//! ([`WallKind`]): no-slip `2 V_w - v`, so that the velocity interpolated at
+//! the wall is the wall's own (a moving Couette plate gets `2U - u`, not
+//! `-u`); free-slip reflects only the normal component.
+//!
+//! Near a corner of two (or three) walls the particle also gets the images
+//! across both walls together, so that its support is filled on every side.
+//! Ghosts are sources in the sums, never destinations: they are rebuilt from
+//! their fluid images before every evaluation and never integrated.
+//!
+//! Running out of reserved capacity is [`Error::CapacityExceeded`] with the
+//! number of ghosts needed, not a panic.
+
+use crate::domain::{Domain, Side, WallKind};
+use crate::error::{Error, Result};
+use crate::real::Real;
+use crate::space::{Space, VectorOps};
+
+/// One ghost: its fluid source and which mirrors produced it.
+///
+/// Bit `2a` of `mirrors` is the wall on the lower side of axis `a`, bit
+/// `2a + 1` the one on the upper side.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Ghost {
+    /// Index of the fluid particle this ghost mirrors.
+    pub source: u32,
+    /// Mirrors applied (see the type docs).
+    pub mirrors: u8,
+}
+
+/// Mirrors position `x` across the walls named in `mirrors`.
+#[inline]
+pub fn mirror_position<S: Space>(domain: &Domain<S>, mut x: S::Vector, mirrors: u8) -> S::Vector {
+    let extent = domain.extent();
+    for a in 0..S::DIM {
+        if mirrors & (1 << (2 * a)) != 0 {
+            x[a] = -x[a];
+        }
+        if mirrors & (1 << (2 * a + 1)) != 0 {
+            x[a] = S::Real::TWO * extent[a] - x[a];
+        }
+    }
+    x
+}
+
+/// The ghost velocity for fluid velocity `v` across the walls in `mirrors`.
+///
+/// With `homogeneous`, wall velocities are taken as zero: the linear part of
+/// the rule, used to analyse the viscous operator's stability.
+#[inline]
+pub fn mirror_velocity<S: Space>(
+    domain: &Domain<S>,
+    mut v: S::Vector,
+    mirrors: u8,
+    homogeneous: bool,
+) -> S::Vector {
+    for a in 0..S::DIM {
+        for (bit, side) in [(2 * a, Side::Lower), (2 * a + 1, Side::Upper)] {
+            if mirrors & (1 << bit) == 0 {
+                continue;
+            }
+            let Some(wall) = domain.wall(a, side) else {
+                continue;
+            };
+            let vw = if homogeneous {
+                S::Vector::zero()
+            } else {
+                wall.velocity
+            };
+            match wall.kind {
+                WallKind::NoSlip => v = vw * S::Real::TWO - v,
+                WallKind::FreeSlip => v[a] = S::Real::TWO * vw[a] - v[a],
+            }
+        }
+    }
+    v
+}
+
+/// Writes the ghosts of the fluid particles `x[..n_fluid]` into
+/// `x[n_fluid..]` and `ghosts[..]`, and returns how many there are.
+///
+/// # Errors
+/// [`Error::CapacityExceeded`] (buffer `"ghosts"`) with the number needed if
+/// the reserved tail of `x` or the `ghosts` buffer is too short.
+pub fn generate<S: Space>(
+    domain: &Domain<S>,
+    radius: S::Real,
+    x: &mut [S::Vector],
+    n_fluid: usize,
+    ghosts: &mut [Ghost],
+) -> Result<usize> {
+    let (fluid, tail) = x.split_at_mut(n_fluid);
+    let available = tail.len().min(ghosts.len());
+    let extent = domain.extent();
+    let mut count = 0usize;
+    for (i, &xi) in fluid.iter().enumerate() {
+        // Per axis: "no mirror", plus each wall closer than the radius.
+        let mut options = [[0u8; 3]; 3];
+        let mut n_opt = [1usize; 3];
+        for a in 0..S::DIM {
+            if domain.wall(a, Side::Lower).is_some() && xi[a] < radius {
+                options[a][n_opt[a]] = 1 << (2 * a);
+                n_opt[a] += 1;
+            }
+            if domain.wall(a, Side::Upper).is_some() && extent[a] - xi[a] < radius {
+                options[a][n_opt[a]] = 1 << (2 * a + 1);
+                n_opt[a] += 1;
+            }
+        }
+        if n_opt == [1, 1, 1] {
+            continue;
+        }
+        for &m2 in &options[2][..n_opt[2]] {
+            for &m1 in &options[1][..n_opt[1]] {
+                for &m0 in &options[0][..n_opt[0]] {
+                    let mirrors = m0 | m1 | m2;
+                    if mirrors == 0 {
+                        continue;
+                    }
+                    if count < available {
+                        tail[count] = mirror_position(domain, xi, mirrors);
+                        ghosts[count] = Ghost {
+                            source: i as u32,
+                            mirrors,
+                        };
+                    }
+                    count += 1;
+                }
+            }
+        }
+    }
+    if count > available {
+        return Err(Error::CapacityExceeded {
+            buffer: "ghosts",
+            needed: count,
+            available,
+        });
+    }
+    Ok(count)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::domain::Wall;
+    use crate::space::{Vector, D2};
+
+    type V2 = Vector<f64, 2>;
+
+    fn box_domain() -> Domain<D2<f64>> {
+        Domain::new(V2::new([0.0, 0.0]), V2::new([1.0, 1.0]))
+            .unwrap()
+            .with_wall(0, Side::Lower, Wall::free_slip())
+            .unwrap()
+            .with_wall(1, Side::Lower, Wall::no_slip())
+            .unwrap()
+            .with_wall(1, Side::Upper, Wall::moving(V2::new([2.0, 0.0])))
+            .unwrap()
+    }
+
+    #[test]
+    fn mirrors_positions_and_velocities_by_wall_rule() {
+        let d = box_domain();
+        let v = V2::new([0.3, -0.2]);
+        // Lower y wall, no-slip at rest: both components reversed.
+        assert_eq!(mirror_velocity(&d, v, 0b0100, false), V2::new([-0.3, 0.2]));
+        // Upper y wall moving at U = 2: tangential 2U - u, normal reversed.
+        assert_eq!(mirror_velocity(&d, v, 0b1000, false), V2::new([3.7, 0.2]));
+        assert_eq!(mirror_velocity(&d, v, 0b1000, true), V2::new([-0.3, 0.2]));
+        // Free-slip x wall: normal reversed, tangential copied.
+        assert_eq!(mirror_velocity(&d, v, 0b0001, false), V2::new([-0.3, -0.2]));
+        assert_eq!(
+            mirror_position(&d, V2::new([0.1, 0.95]), 0b1000),
+            V2::new([0.1, 1.05])
+        );
+        assert_eq!(
+            mirror_position(&d, V2::new([0.1, 0.05]), 0b0101),
+            V2::new([-0.1, -0.05])
+        );
+    }
+
+    #[test]
+    fn corner_particles_get_three_images() {
+        let d = box_domain();
+        let mut x = [V2::default(); 8];
+        x[0] = V2::new([0.05, 0.05]); // near the x- and y-lower walls
+        x[1] = V2::new([0.5, 0.5]); // far from every wall
+        let mut ghosts = [Ghost::default(); 8];
+        let n = generate(&d, 0.1, &mut x, 2, &mut ghosts).unwrap();
+        assert_eq!(n, 3);
+        let images: std::vec::Vec<_> = x[2..5].to_vec();
+        assert!(images.contains(&V2::new([-0.05, 0.05])));
+        assert!(images.contains(&V2::new([0.05, -0.05])));
+        assert!(images.contains(&V2::new([-0.05, -0.05])));
+        assert!(ghosts[..3].iter().all(|g| g.source == 0));
+    }
+
+    #[test]
+    fn too_little_reserved_capacity_is_an_error_with_the_count_needed() {
+        let d = box_domain();
+        let mut x = [V2::new([0.05, 0.05]), V2::new([0.5, 0.02]), V2::default()];
+        let mut ghosts = [Ghost::default(); 3];
+        assert_eq!(
+            generate(&d, 0.1, &mut x, 2, &mut ghosts),
+            Err(Error::CapacityExceeded {
+                buffer: "ghosts",
+                needed: 4,
+                available: 1
+            })
+        );
+    }
+}

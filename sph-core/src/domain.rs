@@ -1,0 +1,314 @@
+//! The simulation box: origin, extent, periodic axes and planar walls.
+//!
+//! Positions are stored relative to the box's lower corner, the scene origin,
+//! held in `f64`. An `f32` scene placed far from the coordinate origin keeps
+//! its full resolution because its particles never see the large offset.
+//!
+//! Each axis is either periodic, or bounded by two planar sides at local
+//! coordinates `0` and `extent`. A bounded side is a [`Wall`] (mirrored ghost
+//! particles, see [`crate::boundary`]) or open (no ghosts; a particle that
+//! crosses it is an error).
+
+use crate::error::{Error, Result};
+use crate::math::Math;
+use crate::real::Real;
+use crate::space::{Space, VectorOps};
+
+/// Which side of an axis.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Side {
+    /// The side at local coordinate 0.
+    Lower,
+    /// The side at local coordinate `extent`.
+    Upper,
+}
+
+impl Side {
+    fn index(self) -> usize {
+        match self {
+            Side::Lower => 0,
+            Side::Upper => 1,
+        }
+    }
+}
+
+/// Boundary condition a wall imposes on the velocity of its ghosts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum WallKind {
+    /// Ghost velocity `2 V_w - v`: no penetration and no slip relative to the wall.
+    NoSlip,
+    /// Normal component reflected about the wall's, tangential component copied.
+    FreeSlip,
+}
+
+/// A planar wall: its kind and its velocity (tangential motion drives the flow;
+/// the normal component must be zero since the wall does not move in the model).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Wall<S: Space> {
+    /// Velocity boundary condition.
+    pub kind: WallKind,
+    /// Wall velocity.
+    pub velocity: S::Vector,
+}
+
+impl<S: Space> Wall<S> {
+    /// A wall at rest with no-slip.
+    pub fn no_slip() -> Self {
+        Self {
+            kind: WallKind::NoSlip,
+            velocity: S::Vector::zero(),
+        }
+    }
+
+    /// A no-slip wall sliding with `velocity`.
+    pub fn moving(velocity: S::Vector) -> Self {
+        Self {
+            kind: WallKind::NoSlip,
+            velocity,
+        }
+    }
+
+    /// A wall at rest with free slip.
+    pub fn free_slip() -> Self {
+        Self {
+            kind: WallKind::FreeSlip,
+            velocity: S::Vector::zero(),
+        }
+    }
+}
+
+/// The box a scene lives in.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Domain<S: Space> {
+    origin: S::Global,
+    extent: S::Vector,
+    periodic: [bool; 3],
+    walls: [[Option<Wall<S>>; 2]; 3],
+}
+
+fn axis_error(axis: usize) -> Error {
+    Error::InvalidParameter {
+        name: "axis",
+        value: axis as f64,
+        rule: "axis must be below the dimension of the space",
+    }
+}
+
+impl<S: Space> Domain<S> {
+    /// A box with lower corner `origin` (absolute, `f64`) and size `extent`;
+    /// every side starts open.
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] if an extent is not positive and finite or
+    /// the origin is not finite.
+    pub fn new(origin: S::Global, extent: S::Vector) -> Result<Self> {
+        for a in 0..S::DIM {
+            if !origin[a].is_finite() {
+                return Err(Error::InvalidParameter {
+                    name: "origin",
+                    value: origin[a],
+                    rule: "the domain origin must be finite",
+                });
+            }
+            let e = extent[a];
+            if !(e.is_finite() && e > S::Real::ZERO) {
+                return Err(Error::InvalidParameter {
+                    name: "extent",
+                    value: e.to_f64(),
+                    rule: "every domain extent must be positive and finite",
+                });
+            }
+        }
+        Ok(Self {
+            origin,
+            extent,
+            periodic: [false; 3],
+            walls: [[None; 2]; 3],
+        })
+    }
+
+    /// Makes `axis` periodic.
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] if the axis is out of range or already has a wall.
+    pub fn with_periodic(mut self, axis: usize) -> Result<Self> {
+        if axis >= S::DIM {
+            return Err(axis_error(axis));
+        }
+        if self.walls[axis].iter().any(Option::is_some) {
+            return Err(Error::InvalidParameter {
+                name: "axis",
+                value: axis as f64,
+                rule: "an axis with a wall cannot also be periodic",
+            });
+        }
+        self.periodic[axis] = true;
+        Ok(self)
+    }
+
+    /// Puts `wall` on one side of `axis`.
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] if the axis is out of range or periodic, or
+    /// the wall velocity has a normal component or is not finite.
+    pub fn with_wall(mut self, axis: usize, side: Side, wall: Wall<S>) -> Result<Self> {
+        if axis >= S::DIM {
+            return Err(axis_error(axis));
+        }
+        if self.periodic[axis] {
+            return Err(Error::InvalidParameter {
+                name: "axis",
+                value: axis as f64,
+                rule: "a periodic axis cannot have walls",
+            });
+        }
+        if !wall.velocity.is_finite() {
+            return Err(Error::InvalidParameter {
+                name: "wall.velocity",
+                value: f64::NAN,
+                rule: "wall velocity must be finite",
+            });
+        }
+        if wall.velocity[axis] != S::Real::ZERO {
+            return Err(Error::InvalidParameter {
+                name: "wall.velocity",
+                value: wall.velocity[axis].to_f64(),
+                rule: "a wall may only move tangentially: its normal velocity must be zero",
+            });
+        }
+        self.walls[axis][side.index()] = Some(wall);
+        Ok(self)
+    }
+
+    /// Absolute coordinates of the lower corner.
+    pub fn origin(&self) -> S::Global {
+        self.origin
+    }
+
+    /// Size of the box.
+    pub fn extent(&self) -> S::Vector {
+        self.extent
+    }
+
+    /// Whether `axis` is periodic.
+    pub fn is_periodic(&self, axis: usize) -> bool {
+        axis < S::DIM && self.periodic[axis]
+    }
+
+    /// The wall on one side of an axis, if any.
+    pub fn wall(&self, axis: usize, side: Side) -> Option<&Wall<S>> {
+        if axis < S::DIM {
+            self.walls[axis][side.index()].as_ref()
+        } else {
+            None
+        }
+    }
+
+    /// True if any side has a wall.
+    pub fn has_walls(&self) -> bool {
+        self.walls[..S::DIM].iter().flatten().any(Option::is_some)
+    }
+
+    /// Converts absolute coordinates to local ones (relative to the origin).
+    pub fn to_local(&self, p: S::Global) -> S::Vector {
+        S::narrow(p - self.origin)
+    }
+
+    /// Converts local coordinates to absolute ones.
+    pub fn to_global(&self, x: S::Vector) -> S::Global {
+        S::widen(x) + self.origin
+    }
+
+    /// Maps `x` into `[0, extent)` along every periodic axis.
+    #[inline]
+    pub fn wrap<M: Math<S::Real>>(&self, mut x: S::Vector) -> S::Vector {
+        for a in 0..S::DIM {
+            if self.periodic[a] {
+                let l = self.extent[a];
+                let mut c = x[a];
+                if c < S::Real::ZERO || c >= l {
+                    c -= l * M::floor(c / l);
+                    // Rounding can land exactly on `l`, which is the same point as 0.
+                    if c >= l || c < S::Real::ZERO {
+                        c = S::Real::ZERO;
+                    }
+                    x[a] = c;
+                }
+            }
+        }
+        x
+    }
+
+    /// The first axis along which `x` lies outside `[0, extent]` on a
+    /// non-periodic axis (or is not finite), with its coordinate.
+    #[inline]
+    pub fn outside(&self, x: S::Vector) -> Option<(usize, S::Real)> {
+        for a in 0..S::DIM {
+            let c = x[a];
+            let bad = if self.periodic[a] {
+                !c.is_finite()
+            } else {
+                !(c >= S::Real::ZERO && c <= self.extent[a])
+            };
+            if bad {
+                return Some((a, c));
+            }
+        }
+        None
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::Libm;
+    use crate::space::{Vector, D2};
+
+    fn strip() -> Domain<D2<f64>> {
+        Domain::new(Vector::new([10.0, -1.0]), Vector::new([1.0, 2.0]))
+            .unwrap()
+            .with_periodic(0)
+            .unwrap()
+            .with_wall(1, Side::Lower, Wall::no_slip())
+            .unwrap()
+            .with_wall(1, Side::Upper, Wall::moving(Vector::new([0.5, 0.0])))
+            .unwrap()
+    }
+
+    #[test]
+    fn wraps_periodic_axes_only() {
+        let d = strip();
+        let x = d.wrap::<Libm>(Vector::new([-0.25, 0.5]));
+        assert_eq!(x, Vector::new([0.75, 0.5]));
+        let x = d.wrap::<Libm>(Vector::new([2.5, 0.5]));
+        assert_eq!(x, Vector::new([0.5, 0.5]));
+        // A tiny negative coordinate rounds onto the period and is mapped to 0.
+        let x = d.wrap::<Libm>(Vector::new([-1e-20, 0.5]));
+        assert_eq!(x[0], 0.0);
+        assert_eq!(d.outside(Vector::new([0.5, 2.5])), Some((1, 2.5)));
+        assert_eq!(d.outside(Vector::new([0.5, 2.0])), None);
+    }
+
+    #[test]
+    fn local_and_global_coordinates() {
+        let d = strip();
+        let p = Vector::new([10.25, 0.0]);
+        assert_eq!(d.to_local(p), Vector::new([0.25, 1.0]));
+        assert_eq!(d.to_global(d.to_local(p)), p);
+    }
+
+    #[test]
+    fn invalid_domains_are_errors() {
+        assert!(Domain::<D2<f64>>::new(Vector::new([0.0, 0.0]), Vector::new([1.0, 0.0])).is_err());
+        assert!(
+            Domain::<D2<f64>>::new(Vector::new([f64::NAN, 0.0]), Vector::new([1.0, 1.0])).is_err()
+        );
+        let d = Domain::<D2<f64>>::new(Vector::new([0.0, 0.0]), Vector::new([1.0, 1.0])).unwrap();
+        assert!(d.with_periodic(2).is_err());
+        assert!(d
+            .with_wall(0, Side::Lower, Wall::moving(Vector::new([1.0, 0.0])))
+            .is_err());
+        assert!(strip().with_wall(0, Side::Lower, Wall::no_slip()).is_err());
+        assert!(strip().with_periodic(1).is_err());
+    }
+}

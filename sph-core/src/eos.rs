@@ -1,0 +1,173 @@
+//! Equations of state `P(rho)` for weakly compressible flow (`shared/physics.md` 3.3).
+
+use crate::error::{Error, Result};
+use crate::math::Math;
+use crate::real::Real;
+
+/// An equation of state.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Eos<F> {
+    /// No pressure at all (`P = 0`, no sound speed): for scenes without a
+    /// pressure term.
+    None,
+    /// `P = c0^2 (rho - rho0) + p0`: symmetric in compression and expansion;
+    /// the choice for low-Reynolds channel flows.
+    Linear {
+        /// Reference density.
+        rho0: F,
+        /// Sound speed.
+        c0: F,
+        /// Background pressure.
+        p0: F,
+    },
+    /// Tait/Cole `P = B ((rho/rho0)^gamma - 1) + p0`, `B = rho0 c0^2 / gamma`:
+    /// the usual choice for free-surface water (`gamma = 7`).
+    Tait {
+        /// Reference density.
+        rho0: F,
+        /// Sound speed at `rho0`.
+        c0: F,
+        /// Exponent.
+        gamma: F,
+        /// Background pressure.
+        p0: F,
+    },
+}
+
+impl<F: Real> Eos<F> {
+    /// Checks the parameters.
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] naming the parameter and its rule.
+    pub fn validate(&self) -> Result<()> {
+        let positive = |name, x: F| {
+            if x.is_finite() && x > F::ZERO {
+                Ok(())
+            } else {
+                Err(Error::InvalidParameter {
+                    name,
+                    value: x.to_f64(),
+                    rule: "must be positive and finite",
+                })
+            }
+        };
+        let finite = |name, x: F| {
+            if x.is_finite() {
+                Ok(())
+            } else {
+                Err(Error::InvalidParameter {
+                    name,
+                    value: x.to_f64(),
+                    rule: "must be finite",
+                })
+            }
+        };
+        match *self {
+            Eos::None => Ok(()),
+            Eos::Linear { rho0, c0, p0 } => {
+                positive("rho0", rho0)?;
+                positive("c0", c0)?;
+                finite("p0", p0)
+            }
+            Eos::Tait {
+                rho0,
+                c0,
+                gamma,
+                p0,
+            } => {
+                positive("rho0", rho0)?;
+                positive("c0", c0)?;
+                positive("gamma", gamma)?;
+                finite("p0", p0)
+            }
+        }
+    }
+
+    /// Pressure at density `rho`.
+    #[inline(always)]
+    pub fn pressure<M: Math<F>>(&self, rho: F) -> F {
+        match *self {
+            Eos::None => F::ZERO,
+            Eos::Linear { rho0, c0, p0 } => c0 * c0 * (rho - rho0) + p0,
+            Eos::Tait {
+                rho0,
+                c0,
+                gamma,
+                p0,
+            } => {
+                let b = rho0 * c0 * c0 / gamma;
+                b * (M::powf(rho / rho0, gamma) - F::ONE) + p0
+            }
+        }
+    }
+
+    /// Reference sound speed (zero for [`Eos::None`]).
+    pub fn sound_speed(&self) -> F {
+        match *self {
+            Eos::None => F::ZERO,
+            Eos::Linear { c0, .. } | Eos::Tait { c0, .. } => c0,
+        }
+    }
+
+    /// Reference density, if the equation has one.
+    pub fn reference_density(&self) -> Option<F> {
+        match *self {
+            Eos::None => None,
+            Eos::Linear { rho0, .. } | Eos::Tait { rho0, .. } => Some(rho0),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::Libm;
+
+    #[test]
+    fn pressures_vanish_at_reference_density_and_agree_to_first_order() {
+        let lin = Eos::Linear {
+            rho0: 1000.0,
+            c0: 10.0,
+            p0: 0.0,
+        };
+        let tait = Eos::Tait {
+            rho0: 1000.0,
+            c0: 10.0,
+            gamma: 7.0,
+            p0: 0.0,
+        };
+        assert_eq!(lin.pressure::<Libm>(1000.0), 0.0);
+        assert!(tait.pressure::<Libm>(1000.0).abs() < 1e-9);
+        // dP/drho = c0^2 at rho0 for both.
+        let d = 1e-3;
+        let slope =
+            (tait.pressure::<Libm>(1000.0 + d) - tait.pressure::<Libm>(1000.0 - d)) / (2.0 * d);
+        assert!((slope - 100.0).abs() < 1e-6, "{slope}");
+        assert_eq!(lin.pressure::<Libm>(1001.0), 100.0);
+        // Tait is stiffer in compression than in expansion.
+        assert!(tait.pressure::<Libm>(1010.0) > -tait.pressure::<Libm>(990.0));
+    }
+
+    #[test]
+    fn invalid_parameters_are_named() {
+        let e = Eos::Linear {
+            rho0: 1000.0,
+            c0: -1.0,
+            p0: 0.0,
+        }
+        .validate();
+        assert!(matches!(e, Err(Error::InvalidParameter { name: "c0", .. })));
+        let e = Eos::Tait {
+            rho0: 1000.0,
+            c0: 1.0,
+            gamma: 0.0,
+            p0: 0.0,
+        }
+        .validate();
+        assert!(matches!(
+            e,
+            Err(Error::InvalidParameter { name: "gamma", .. })
+        ));
+        assert!(Eos::<f64>::None.validate().is_ok());
+    }
+}

@@ -1,0 +1,529 @@
+//! Neighbour search: an allocation-free cell list, and the brute-force reference.
+//!
+//! [`Grid`] covers the domain with cells at least one support radius wide
+//! (along bounded axes it is padded by one radius on each side, where ghost
+//! particles live). [`CellList`] sorts particle indices by cell with a counting
+//! sort into three caller-provided `u32` buffers; the buffer sizes are asked of
+//! the grid first ([`Grid::cell_count`]), so nothing is allocated.
+//!
+//! A neighbour of particle `i` is any `j` (including `i` itself) whose nearest
+//! periodic image lies strictly closer than the support radius. The
+//! separation is always computed as `(x_i - x_j) - shift`, with `shift` a
+//! multiple of the period, in both the cell list and [`brute_force`], so the
+//! two return exactly the same pairs, bit for bit.
+//!
+//! Within a cell, particles keep increasing index order and cells are visited
+//! in a fixed order: the neighbour sequence of a particle depends only on the
+//! positions, never on how work is split across threads.
+
+use crate::domain::Domain;
+use crate::error::{Error, Result};
+use crate::real::Real;
+use crate::space::{Space, VectorOps};
+
+/// Relative widening of cells over the support radius, so that rounding in
+/// the cell index can never hide a neighbour two cells away.
+const CELL_MARGIN: f64 = 1e-3;
+
+/// A uniform grid of cells over a domain (see the module docs).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Grid<S: Space> {
+    lo: S::Vector,
+    inv_cell: S::Vector,
+    dims: [usize; 3],
+    periodic: [bool; 3],
+    period: S::Vector,
+    radius2: S::Real,
+}
+
+impl<S: Space> Grid<S> {
+    /// A grid for `domain` and support radius `radius`.
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] if the radius is not positive and finite, a
+    /// periodic extent is shorter than twice the radius (a particle would meet
+    /// two images of one neighbour), or the cell count overflows.
+    pub fn new(domain: &Domain<S>, radius: S::Real) -> Result<Self> {
+        let r = radius.to_f64();
+        if !(r > 0.0 && r.is_finite()) {
+            return Err(Error::InvalidParameter {
+                name: "radius",
+                value: r,
+                rule: "the support radius must be positive and finite",
+            });
+        }
+        let extent = domain.extent();
+        let mut lo = S::Vector::zero();
+        let mut inv_cell = S::Vector::zero();
+        let mut dims = [1usize; 3];
+        let mut periodic = [false; 3];
+        let mut period = S::Vector::zero();
+        let mut total: usize = 1;
+        let wide = r * (1.0 + CELL_MARGIN);
+        for a in 0..S::DIM {
+            let l = extent[a].to_f64();
+            let (n, cell, low) = if domain.is_periodic(a) {
+                if l < 2.0 * r {
+                    return Err(Error::InvalidParameter {
+                        name: "extent",
+                        value: l,
+                        rule: "a periodic extent must be at least twice the kernel support radius",
+                    });
+                }
+                periodic[a] = true;
+                period[a] = extent[a];
+                let n = libm::floor(l / wide).max(1.0);
+                (n, l / n, 0.0)
+            } else {
+                let n = libm::ceil((l + 2.0 * wide) / wide);
+                (n, wide, -wide)
+            };
+            if !(n < u32::MAX as f64) {
+                return Err(Error::InvalidParameter {
+                    name: "radius",
+                    value: r,
+                    rule: "too many cells along an axis for this support radius",
+                });
+            }
+            let n = n as usize;
+            total = total
+                .checked_mul(n)
+                .filter(|&t| t < u32::MAX as usize)
+                .ok_or(Error::InvalidParameter {
+                    name: "radius",
+                    value: r,
+                    rule:
+                        "the cell count overflows: the support radius is too small for this domain",
+                })?;
+            dims[a] = n;
+            lo[a] = S::Real::from_f64(low);
+            inv_cell[a] = S::Real::from_f64(1.0 / cell);
+        }
+        Ok(Self {
+            lo,
+            inv_cell,
+            dims,
+            periodic,
+            period,
+            radius2: radius * radius,
+        })
+    }
+
+    /// Number of cells; a [`CellList`] needs `cell_count() + 1` entries in its
+    /// `start` buffer.
+    pub fn cell_count(&self) -> usize {
+        self.dims[0] * self.dims[1] * self.dims[2]
+    }
+
+    /// Cells along each axis (1 for axes beyond the dimension).
+    pub fn dims(&self) -> [usize; 3] {
+        self.dims
+    }
+
+    /// Squared support radius.
+    pub fn radius2(&self) -> S::Real {
+        self.radius2
+    }
+
+    /// Linear index of the cell holding `x`, or `None` outside the grid.
+    #[inline]
+    pub fn cell_of(&self, x: S::Vector) -> Option<usize> {
+        let mut index = 0;
+        let mut stride = 1;
+        for a in 0..S::DIM {
+            let t = (x[a] - self.lo[a]) * self.inv_cell[a];
+            if !(t >= S::Real::ZERO) {
+                return None;
+            }
+            let mut k = t.trunc_i64() as usize;
+            if k >= self.dims[a] {
+                // On a periodic axis only rounding can get here (x < period).
+                if self.periodic[a] && k == self.dims[a] {
+                    k = self.dims[a] - 1;
+                } else {
+                    return None;
+                }
+            }
+            index += k * stride;
+            stride *= self.dims[a];
+        }
+        Some(index)
+    }
+
+    /// Up to three `(cell coordinate, shift)` candidates along axis `a`
+    /// around coordinate `k`; returns how many were written.
+    #[inline(always)]
+    fn axis_candidates(&self, a: usize, k: usize, out: &mut [(usize, S::Real); 3]) -> usize {
+        if a >= S::DIM {
+            out[0] = (0, S::Real::ZERO);
+            return 1;
+        }
+        let n = self.dims[a];
+        let mut m = 0;
+        for o in [-1i64, 0, 1] {
+            let c = k as i64 + o;
+            if c < 0 {
+                if self.periodic[a] {
+                    out[m] = ((c + n as i64) as usize, -self.period[a]);
+                    m += 1;
+                }
+            } else if c as usize >= n {
+                if self.periodic[a] {
+                    out[m] = (c as usize - n, self.period[a]);
+                    m += 1;
+                }
+            } else {
+                out[m] = (c as usize, S::Real::ZERO);
+                m += 1;
+            }
+        }
+        m
+    }
+}
+
+/// A cell list over three caller-provided buffers (see the module docs).
+#[derive(Debug)]
+pub struct CellList<'a> {
+    start: &'a mut [u32],
+    sorted: &'a mut [u32],
+    cell: &'a mut [u32],
+    len: usize,
+}
+
+impl<'a> CellList<'a> {
+    /// Wraps the buffers: `start` needs `grid.cell_count() + 1` entries,
+    /// `sorted` and `cell` one per particle. Sizes are checked by [`Self::build`].
+    pub fn new(start: &'a mut [u32], sorted: &'a mut [u32], cell: &'a mut [u32]) -> Self {
+        Self {
+            start,
+            sorted,
+            cell,
+            len: 0,
+        }
+    }
+
+    /// Sorts the particles at `x` into cells (stable counting sort, O(N + cells)).
+    ///
+    /// # Errors
+    /// [`Error::CapacityExceeded`] if a buffer is too small;
+    /// [`Error::OutsideDomain`] for a particle outside the grid.
+    pub fn build<S: Space>(&mut self, grid: &Grid<S>, x: &[S::Vector]) -> Result<()> {
+        let cells = grid.cell_count();
+        let n = x.len();
+        for (buffer, have, need) in [
+            ("cell_start", self.start.len(), cells + 1),
+            ("cell_sorted", self.sorted.len(), n),
+            ("cell_index", self.cell.len(), n),
+        ] {
+            if have < need {
+                return Err(Error::CapacityExceeded {
+                    buffer,
+                    needed: need,
+                    available: have,
+                });
+            }
+        }
+        if n >= u32::MAX as usize {
+            return Err(Error::CapacityExceeded {
+                buffer: "particles",
+                needed: n,
+                available: u32::MAX as usize - 1,
+            });
+        }
+        let start = &mut self.start[..cells + 1];
+        start.fill(0);
+        for (i, xi) in x.iter().enumerate() {
+            let c = match grid.cell_of(*xi) {
+                Some(c) => c,
+                None => {
+                    let axis = (0..S::DIM)
+                        .find(|&a| {
+                            let t = (xi[a] - grid.lo[a]) * grid.inv_cell[a];
+                            !(t >= S::Real::ZERO && (t.trunc_i64() as usize) <= grid.dims[a])
+                        })
+                        .unwrap_or(0);
+                    return Err(Error::OutsideDomain {
+                        particle: i,
+                        axis,
+                        coordinate: xi[axis].to_f64(),
+                    });
+                }
+            };
+            self.cell[i] = c as u32;
+            start[c + 1] += 1;
+        }
+        for c in 0..cells {
+            start[c + 1] += start[c];
+        }
+        // Place particles; `start[c]` is used as a cursor and restored below.
+        for i in 0..n {
+            let c = self.cell[i] as usize;
+            self.sorted[start[c] as usize] = i as u32;
+            start[c] += 1;
+        }
+        for c in (1..=cells).rev() {
+            start[c] = start[c - 1];
+        }
+        start[0] = 0;
+        self.len = n;
+        Ok(())
+    }
+
+    /// Read-only view for the neighbour loops.
+    pub fn view(&self) -> CellView<'_> {
+        CellView {
+            start: self.start,
+            sorted: &self.sorted[..self.len],
+            cell: &self.cell[..self.len],
+        }
+    }
+}
+
+/// A built cell list, shared by every thread during a pass.
+#[derive(Clone, Copy, Debug)]
+pub struct CellView<'a> {
+    start: &'a [u32],
+    sorted: &'a [u32],
+    cell: &'a [u32],
+}
+
+impl CellView<'_> {
+    /// Number of particles sorted.
+    pub fn len(&self) -> usize {
+        self.sorted.len()
+    }
+
+    /// True if no particles were sorted.
+    pub fn is_empty(&self) -> bool {
+        self.sorted.is_empty()
+    }
+
+    /// Particle indices in cell order.
+    pub fn sorted(&self) -> &[u32] {
+        self.sorted
+    }
+
+    /// Calls `f(j, r_ij, r2)` for every neighbour `j` of particle `i`
+    /// (including `i`), where `r_ij` is the separation to `j`'s nearest image
+    /// and `r2 = |r_ij|^2 < radius^2`.
+    #[inline(always)]
+    pub fn for_each_neighbour<S: Space>(
+        &self,
+        grid: &Grid<S>,
+        x: &[S::Vector],
+        i: usize,
+        mut f: impl FnMut(usize, S::Vector, S::Real),
+    ) {
+        let xi = x[i];
+        let ci = self.cell[i] as usize;
+        let k = [
+            ci % grid.dims[0],
+            (ci / grid.dims[0]) % grid.dims[1],
+            ci / (grid.dims[0] * grid.dims[1]),
+        ];
+        let mut cand = [[(0usize, S::Real::ZERO); 3]; 3];
+        let mut count = [0usize; 3];
+        for a in 0..3 {
+            count[a] = grid.axis_candidates(a, k[a], &mut cand[a]);
+        }
+        let (d0, d01) = (grid.dims[0], grid.dims[0] * grid.dims[1]);
+        for &(c2, s2) in &cand[2][..count[2]] {
+            for &(c1, s1) in &cand[1][..count[1]] {
+                for &(c0, s0) in &cand[0][..count[0]] {
+                    let mut shift = S::Vector::zero();
+                    shift[0] = s0;
+                    if S::DIM > 1 {
+                        shift[1] = s1;
+                    }
+                    if S::DIM > 2 {
+                        shift[2] = s2;
+                    }
+                    let c = c0 + c1 * d0 + c2 * d01;
+                    let (lo, hi) = (self.start[c] as usize, self.start[c + 1] as usize);
+                    for &j in &self.sorted[lo..hi] {
+                        let j = j as usize;
+                        let d = (xi - x[j]) - shift;
+                        let r2 = d.norm2();
+                        if r2 < grid.radius2 {
+                            f(j, d, r2);
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// The O(N^2) reference: calls `f(i, j, r_ij, r2)` for every ordered pair
+/// (including `i == j`) closer than `radius`, using the nearest periodic image.
+pub fn brute_force<S: Space>(
+    domain: &Domain<S>,
+    x: &[S::Vector],
+    radius: S::Real,
+    mut f: impl FnMut(usize, usize, S::Vector, S::Real),
+) {
+    let extent = domain.extent();
+    let radius2 = radius * radius;
+    for (i, &xi) in x.iter().enumerate() {
+        for (j, &xj) in x.iter().enumerate() {
+            let mut d = xi - xj;
+            let mut shift = S::Vector::zero();
+            for a in 0..S::DIM {
+                if domain.is_periodic(a) {
+                    let l = extent[a];
+                    if d[a] > l * S::Real::HALF {
+                        shift[a] = l;
+                    } else if d[a] < -(l * S::Real::HALF) {
+                        shift[a] = -l;
+                    }
+                }
+            }
+            d -= shift;
+            let r2 = d.norm2();
+            if r2 < radius2 {
+                f(i, j, d, r2);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::domain::{Side, Wall};
+    use crate::space::{Vector, D2, D3};
+    use proptest::prelude::*;
+    use std::vec::Vec;
+
+    type V2 = Vector<f64, 2>;
+
+    fn pairs_by_cells<S: Space>(
+        domain: &Domain<S>,
+        x: &[S::Vector],
+        radius: S::Real,
+    ) -> Vec<(usize, usize, S::Vector)> {
+        let grid = Grid::new(domain, radius).unwrap();
+        let mut start = std::vec![0u32; grid.cell_count() + 1];
+        let mut sorted = std::vec![0u32; x.len()];
+        let mut cell = std::vec![0u32; x.len()];
+        let mut list = CellList::new(&mut start, &mut sorted, &mut cell);
+        list.build(&grid, x).unwrap();
+        let view = list.view();
+        let mut out = Vec::new();
+        for i in 0..x.len() {
+            view.for_each_neighbour(&grid, x, i, |j, d, _| out.push((i, j, d)));
+        }
+        out.sort_by_key(|a| (a.0, a.1));
+        out
+    }
+
+    fn pairs_brute<S: Space>(
+        domain: &Domain<S>,
+        x: &[S::Vector],
+        radius: S::Real,
+    ) -> Vec<(usize, usize, S::Vector)> {
+        let mut out = Vec::new();
+        brute_force(domain, x, radius, |i, j, d, _| out.push((i, j, d)));
+        out.sort_by_key(|a| (a.0, a.1));
+        out
+    }
+
+    fn channel(l: f64, hgt: f64) -> Domain<D2<f64>> {
+        Domain::new(V2::new([0.0, 0.0]), V2::new([l, hgt]))
+            .unwrap()
+            .with_periodic(0)
+            .unwrap()
+            .with_wall(1, Side::Lower, Wall::no_slip())
+            .unwrap()
+            .with_wall(1, Side::Upper, Wall::no_slip())
+            .unwrap()
+    }
+
+    /// Coordinates biased toward cell edges, domain faces and wrap points.
+    fn coordinate(l: f64, cell: f64) -> impl Strategy<Value = f64> {
+        prop_oneof![
+            0.0..l,
+            (0usize..64).prop_map(move |k| (k as f64 * cell).min(l * 0.999_999)),
+            Just(0.0),
+            (0.0..1e-9f64).prop_map(move |e| l - e - 1e-12),
+        ]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+
+        #[test]
+        fn cell_list_matches_brute_force_2d(
+            radius in 0.05f64..0.4,
+            pts in proptest::collection::vec((coordinate(1.0, 0.05), coordinate(0.8, 0.05)), 0..120),
+        ) {
+            let domain = channel(1.0, 0.8);
+            prop_assume!(1.0 >= 2.0 * radius);
+            let x: Vec<V2> = pts.iter().map(|&(a, b)| V2::new([a, b])).collect();
+            prop_assert_eq!(pairs_by_cells(&domain, &x, radius), pairs_brute(&domain, &x, radius));
+        }
+
+        #[test]
+        fn cell_list_matches_brute_force_3d_fully_periodic(
+            radius in 0.1f64..0.5,
+            pts in proptest::collection::vec((coordinate(1.0, 0.1), coordinate(1.0, 0.125), coordinate(1.2, 0.2)), 0..80),
+        ) {
+            let domain = Domain::<D3<f64>>::new(Vector::new([5.0, 5.0, 5.0]), Vector::new([1.0, 1.0, 1.2]))
+                .unwrap().with_periodic(0).unwrap().with_periodic(1).unwrap().with_periodic(2).unwrap();
+            let x: Vec<Vector<f64, 3>> = pts.iter().map(|&(a, b, c)| Vector::new([a, b, c])).collect();
+            prop_assert_eq!(pairs_by_cells(&domain, &x, radius), pairs_brute(&domain, &x, radius));
+        }
+    }
+
+    #[test]
+    fn periodic_neighbours_across_the_wrap() {
+        let domain = channel(1.0, 1.0);
+        let x = [V2::new([0.01, 0.5]), V2::new([0.99, 0.5])];
+        let pairs = pairs_by_cells(&domain, &x, 0.1);
+        let across: Vec<_> = pairs.iter().filter(|p| p.0 != p.1).collect();
+        assert_eq!(across.len(), 2);
+        assert!(
+            (across[0].2[0] - 0.02).abs() < 1e-12,
+            "r_01 = {:?}",
+            across[0].2
+        );
+    }
+
+    #[test]
+    fn buffer_sizes_and_domain_are_checked() {
+        let domain = channel(1.0, 1.0);
+        let grid = Grid::new(&domain, 0.1).unwrap();
+        let x = [V2::new([0.5, 0.5]), V2::new([0.5, 3.0])];
+        let mut start = std::vec![0u32; grid.cell_count()];
+        let (mut sorted, mut cell) = ([0u32; 2], [0u32; 2]);
+        let err = CellList::new(&mut start, &mut sorted, &mut cell).build(&grid, &x);
+        assert!(matches!(
+            err,
+            Err(Error::CapacityExceeded {
+                buffer: "cell_start",
+                ..
+            })
+        ));
+        let mut start = std::vec![0u32; grid.cell_count() + 1];
+        let err = CellList::new(&mut start, &mut sorted, &mut cell).build(&grid, &x);
+        assert!(matches!(
+            err,
+            Err(Error::OutsideDomain {
+                particle: 1,
+                axis: 1,
+                ..
+            })
+        ));
+        assert!(
+            Grid::new(&domain, 0.6).is_err(),
+            "period shorter than two radii"
+        );
+        assert!(Grid::new(&domain, -0.1).is_err());
+    }
+
+    #[test]
+    fn empty_cloud_builds() {
+        let domain = channel(1.0, 1.0);
+        assert!(pairs_by_cells(&domain, &[], 0.1).is_empty());
+    }
+}

@@ -1,0 +1,391 @@
+//! Physics terms, composed at compile time.
+//!
+//! A [`Term`] contributes to one particle's accumulator through three hooks
+//! with no-op defaults: `init` (once per destination), `pair` (once per
+//! neighbour) and `viscous` (the linear viscous part alone, used to find the
+//! viscous time-step limit). A tuple of terms is a term, so a scene states the
+//! physics it needs as a type, e.g. `(PressureGradient, MorrisViscosity<f64>)`,
+//! and a term it does not name costs nothing. A tuple is a group: one
+//! neighbour pass evaluates all of its members, sharing the pair quantities
+//! (`r_ij`, `W`, `grad W`, `v_ij`) computed once per pair.
+//!
+//! Gather only: a term writes only to its destination's accumulator. Ghosts
+//! are sources, never destinations. This is what makes chunked and parallel
+//! evaluation exact without atomics.
+//!
+//! Conventions (`shared/physics.md`): `r_ij = x_i - x_j`, `v_ij = v_i - v_j`,
+//! `grad W = F r_ij` with `F = (1/r) dW/dr <= 0`, and `eta2` is the absolute
+//! regulariser `eta^2` (a fraction of `h^2`, 0.01 by default).
+
+use crate::real::Real;
+use crate::space::{Space, VectorOps};
+
+/// Per-particle fields read during a pass (fluid first, then ghosts).
+#[derive(Clone, Copy, Debug)]
+pub struct Fields<'a, S: Space> {
+    /// Positions.
+    pub x: &'a [S::Vector],
+    /// Velocities the pass sees (the predicted velocity during a step).
+    pub v: &'a [S::Vector],
+    /// Masses.
+    pub m: &'a [S::Real],
+    /// Densities.
+    pub rho: &'a [S::Real],
+    /// Pressures.
+    pub p: &'a [S::Real],
+}
+
+/// The destination particle's own values, read once per pass.
+#[derive(Clone, Copy, Debug)]
+pub struct Dest<S: Space> {
+    /// Index.
+    pub i: usize,
+    /// Velocity.
+    pub v: S::Vector,
+    /// Mass.
+    pub m: S::Real,
+    /// Density.
+    pub rho: S::Real,
+    /// Pressure.
+    pub p: S::Real,
+}
+
+/// Quantities of one pair, computed once and shared by every term of a group.
+#[derive(Clone, Copy, Debug)]
+pub struct Pair<S: Space> {
+    /// Index of the neighbour (may equal the destination: the self pair).
+    pub j: usize,
+    /// Separation `x_i - x_j` (to the nearest periodic image).
+    pub r_ij: S::Vector,
+    /// `|r_ij|^2`.
+    pub r2: S::Real,
+    /// Kernel value `W_ij` (zero unless the group declares `NEEDS_W`).
+    pub w: S::Real,
+    /// `F_ij = (1/r) dW/dr` (zero unless the group declares `NEEDS_F`).
+    pub f: S::Real,
+    /// `grad_i W_ij = F_ij r_ij`.
+    pub grad: S::Vector,
+    /// `v_i - v_j`.
+    pub v_ij: S::Vector,
+}
+
+/// What a pass accumulates for one destination.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Acc<S: Space> {
+    /// Summed density.
+    pub rho: S::Real,
+    /// Rate of change of density.
+    pub drho: S::Real,
+    /// Acceleration.
+    pub dv: S::Vector,
+}
+
+/// Scene constants every term may read.
+#[derive(Clone, Copy, Debug)]
+pub struct Consts<S: Space> {
+    /// Smoothing length.
+    pub h: S::Real,
+    /// Absolute regulariser `eta^2` (already multiplied by `h^2`).
+    pub eta2: S::Real,
+    /// Reference sound speed (zero without an equation of state).
+    pub c0: S::Real,
+}
+
+/// One physics contribution (see the module docs).
+pub trait Term<S: Space>: Copy + Send + Sync {
+    /// The pair loop must compute `W`.
+    const NEEDS_W: bool = false;
+    /// The pair loop must compute `F` and `grad W`.
+    const NEEDS_F: bool = false;
+    /// The term has a viscous (`viscous` hook) part.
+    const VISCOUS: bool = false;
+    /// The term does nothing at all (only `()`): its pass is skipped.
+    const EMPTY: bool = false;
+
+    /// Called once per destination before its neighbours.
+    #[inline(always)]
+    fn init(&self, _k: &Consts<S>, _d: &Dest<S>, _acc: &mut Acc<S>) {}
+
+    /// Called once per neighbour.
+    #[inline(always)]
+    fn pair(
+        &self,
+        _k: &Consts<S>,
+        _d: &Dest<S>,
+        _f: &Fields<'_, S>,
+        _p: &Pair<S>,
+        _acc: &mut Acc<S>,
+    ) {
+    }
+
+    /// The linear viscous part of `pair` alone (no pressure, no body force).
+    #[inline(always)]
+    fn viscous(
+        &self,
+        _k: &Consts<S>,
+        _d: &Dest<S>,
+        _f: &Fields<'_, S>,
+        _p: &Pair<S>,
+        _acc: &mut Acc<S>,
+    ) {
+    }
+}
+
+impl<S: Space> Term<S> for () {
+    const EMPTY: bool = true;
+}
+
+macro_rules! term_tuple {
+    ($($T:ident $i:tt),+) => {
+        impl<S: Space, $($T: Term<S>),+> Term<S> for ($($T,)+) {
+            const NEEDS_W: bool = $($T::NEEDS_W)||+;
+            const NEEDS_F: bool = $($T::NEEDS_F)||+;
+            const VISCOUS: bool = $($T::VISCOUS)||+;
+            #[inline(always)]
+            fn init(&self, k: &Consts<S>, d: &Dest<S>, acc: &mut Acc<S>) {
+                $(self.$i.init(k, d, acc);)+
+            }
+            #[inline(always)]
+            fn pair(&self, k: &Consts<S>, d: &Dest<S>, f: &Fields<'_, S>, p: &Pair<S>, acc: &mut Acc<S>) {
+                $(self.$i.pair(k, d, f, p, acc);)+
+            }
+            #[inline(always)]
+            fn viscous(&self, k: &Consts<S>, d: &Dest<S>, f: &Fields<'_, S>, p: &Pair<S>, acc: &mut Acc<S>) {
+                $(self.$i.viscous(k, d, f, p, acc);)+
+            }
+        }
+    };
+}
+
+term_tuple!(A 0);
+term_tuple!(A 0, B 1);
+term_tuple!(A 0, B 1, C 2);
+term_tuple!(A 0, B 1, C 2, D 3);
+term_tuple!(A 0, B 1, C 2, D 3, E 4);
+term_tuple!(A 0, B 1, C 2, D 3, E 4, G 5);
+
+/// Summation density `rho_i = sum_j m_j W_ij` (the sum includes `j = i`).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct SummationDensity;
+
+impl<S: Space> Term<S> for SummationDensity {
+    const NEEDS_W: bool = true;
+    #[inline(always)]
+    fn pair(&self, _k: &Consts<S>, _d: &Dest<S>, f: &Fields<'_, S>, p: &Pair<S>, acc: &mut Acc<S>) {
+        acc.rho += f.m[p.j] * p.w;
+    }
+}
+
+/// Continuity `d rho_i / dt = sum_j m_j v_ij . grad_i W_ij` (Monaghan 1992, the seed's S1).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Continuity;
+
+impl<S: Space> Term<S> for Continuity {
+    const NEEDS_F: bool = true;
+    #[inline(always)]
+    fn pair(&self, _k: &Consts<S>, _d: &Dest<S>, f: &Fields<'_, S>, p: &Pair<S>, acc: &mut Acc<S>) {
+        acc.drho += f.m[p.j] * p.v_ij.dot(p.grad);
+    }
+}
+
+/// Symmetric pressure gradient
+/// `dv_i/dt = -sum_j m_j (P_i/rho_i^2 + P_j/rho_j^2) grad_i W_ij`;
+/// pairwise antisymmetric, so it conserves linear and angular momentum.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PressureGradient;
+
+impl<S: Space> Term<S> for PressureGradient {
+    const NEEDS_F: bool = true;
+    #[inline(always)]
+    fn pair(&self, _k: &Consts<S>, d: &Dest<S>, f: &Fields<'_, S>, p: &Pair<S>, acc: &mut Acc<S>) {
+        let j = p.j;
+        let rho_j = f.rho[j];
+        let coeff = f.m[j] * (d.p / (d.rho * d.rho) + f.p[j] / (rho_j * rho_j));
+        acc.dv -= p.grad * coeff;
+    }
+}
+
+/// A uniform body force per unit mass (gravity, or a driving pressure gradient).
+#[derive(Clone, Copy, Debug)]
+pub struct BodyForce<S: Space> {
+    /// Acceleration.
+    pub g: S::Vector,
+}
+
+impl<S: Space> Term<S> for BodyForce<S> {
+    #[inline(always)]
+    fn init(&self, _k: &Consts<S>, _d: &Dest<S>, acc: &mut Acc<S>) {
+        acc.dv += self.g;
+    }
+}
+
+#[inline(always)]
+fn regularised<F: Real>(r2: F, eta2: F) -> F {
+    // `max` keeps 0/0 out for coincident particles when eta2 is zero.
+    (r2 + eta2).max(F::MIN_POSITIVE)
+}
+
+/// Laminar viscosity of Morris, Fox & Zhu (1997), `shared/physics.md` 1.6:
+/// `dv_i/dt = sum_j m_j 2 mu / (rho_i rho_j) (r_ij . grad W) / (r^2 + eta^2) v_ij`.
+///
+/// Its continuum limit is exactly `nu lap v`. Conserves linear momentum; not
+/// angular momentum (the force is along `v_ij`).
+#[derive(Clone, Copy, Debug)]
+pub struct MorrisViscosity<F> {
+    /// Dynamic viscosity `mu`.
+    pub mu: F,
+}
+
+impl<S: Space> Term<S> for MorrisViscosity<S::Real> {
+    const NEEDS_F: bool = true;
+    const VISCOUS: bool = true;
+    #[inline(always)]
+    fn pair(&self, k: &Consts<S>, d: &Dest<S>, f: &Fields<'_, S>, p: &Pair<S>, acc: &mut Acc<S>) {
+        <Self as Term<S>>::viscous(self, k, d, f, p, acc);
+    }
+    #[inline(always)]
+    fn viscous(
+        &self,
+        k: &Consts<S>,
+        d: &Dest<S>,
+        f: &Fields<'_, S>,
+        p: &Pair<S>,
+        acc: &mut Acc<S>,
+    ) {
+        let j = p.j;
+        let coeff = f.m[j] * S::Real::TWO * self.mu / (d.rho * f.rho[j]) * p.f * p.r2
+            / regularised(p.r2, k.eta2);
+        acc.dv += p.v_ij * coeff;
+    }
+}
+
+/// The seed's viscous slot, corrected (Monaghan-Cleary, `shared/physics.md` 1.4):
+/// `Pi_ij = -2 (d + 2) mu / (rho_i rho_j) (v_ij . r_ij) / (r^2 + eta^2)`,
+/// `dv_i/dt = -sum_j m_j Pi_ij grad_i W_ij`.
+///
+/// A central force: conserves linear and angular momentum. On a square
+/// lattice it sees a viscosity 5-35 % too small at `h/dx <= 1.3`, and its
+/// stability limit is about half of Morris's.
+#[derive(Clone, Copy, Debug)]
+pub struct PiViscosity<F> {
+    /// Dynamic viscosity `mu`.
+    pub mu: F,
+}
+
+impl<S: Space> Term<S> for PiViscosity<S::Real> {
+    const NEEDS_F: bool = true;
+    const VISCOUS: bool = true;
+    #[inline(always)]
+    fn pair(&self, k: &Consts<S>, d: &Dest<S>, f: &Fields<'_, S>, p: &Pair<S>, acc: &mut Acc<S>) {
+        <Self as Term<S>>::viscous(self, k, d, f, p, acc);
+    }
+    #[inline(always)]
+    fn viscous(
+        &self,
+        k: &Consts<S>,
+        d: &Dest<S>,
+        f: &Fields<'_, S>,
+        p: &Pair<S>,
+        acc: &mut Acc<S>,
+    ) {
+        let j = p.j;
+        let factor = S::Real::TWO * S::Real::from_usize(S::DIM + 2);
+        let kij = factor * self.mu / (d.rho * f.rho[j]);
+        let coeff = f.m[j] * kij * p.v_ij.dot(p.r_ij) / regularised(p.r2, k.eta2) * p.f;
+        acc.dv += p.r_ij * coeff;
+    }
+}
+
+/// Monaghan's artificial viscosity, for high Reynolds numbers:
+/// for approaching pairs (`v_ij . r_ij < 0`),
+/// `Pi_ij = (-alpha c0 mu_ij + beta mu_ij^2) / rho_bar`, `mu_ij = h v_ij.r_ij / (r^2 + eta^2)`.
+///
+/// Equivalent shear viscosity `nu = alpha h c0 / (2 (d + 2))`.
+#[derive(Clone, Copy, Debug)]
+pub struct ArtificialViscosity<F> {
+    /// Linear coefficient (0.01-0.1 for validation runs, up to 1 for shocks).
+    pub alpha: F,
+    /// Quadratic coefficient (0 for subsonic flows).
+    pub beta: F,
+}
+
+impl<S: Space> Term<S> for ArtificialViscosity<S::Real> {
+    const NEEDS_F: bool = true;
+    const VISCOUS: bool = true;
+    #[inline(always)]
+    fn pair(&self, k: &Consts<S>, d: &Dest<S>, f: &Fields<'_, S>, p: &Pair<S>, acc: &mut Acc<S>) {
+        let vr = p.v_ij.dot(p.r_ij);
+        if vr < S::Real::ZERO {
+            let j = p.j;
+            let mu_ij = k.h * vr / regularised(p.r2, k.eta2);
+            let rho_bar = S::Real::HALF * (d.rho + f.rho[j]);
+            let pi = (-self.alpha * k.c0 * mu_ij + self.beta * mu_ij * mu_ij) / rho_bar;
+            acc.dv -= p.grad * (f.m[j] * pi);
+        }
+    }
+    /// The linear part without the approach switch: an upper bound of the operator.
+    #[inline(always)]
+    fn viscous(
+        &self,
+        k: &Consts<S>,
+        d: &Dest<S>,
+        f: &Fields<'_, S>,
+        p: &Pair<S>,
+        acc: &mut Acc<S>,
+    ) {
+        let j = p.j;
+        let mu_ij = k.h * p.v_ij.dot(p.r_ij) / regularised(p.r2, k.eta2);
+        let rho_bar = S::Real::HALF * (d.rho + f.rho[j]);
+        let pi = -self.alpha * k.c0 * mu_ij / rho_bar;
+        acc.dv -= p.grad * (f.m[j] * pi);
+    }
+}
+
+/// One of the three viscous forms, chosen at run time (one predictable branch
+/// per pair; a scene that knows its form at compile time names the form's own
+/// type instead).
+#[derive(Clone, Copy, Debug)]
+pub enum AnyViscosity<F> {
+    /// [`MorrisViscosity`].
+    Morris(MorrisViscosity<F>),
+    /// [`PiViscosity`].
+    Pi(PiViscosity<F>),
+    /// [`ArtificialViscosity`].
+    Artificial(ArtificialViscosity<F>),
+}
+
+impl<S: Space> Term<S> for AnyViscosity<S::Real> {
+    const NEEDS_F: bool = true;
+    const VISCOUS: bool = true;
+    #[inline(always)]
+    fn pair(&self, k: &Consts<S>, d: &Dest<S>, f: &Fields<'_, S>, p: &Pair<S>, acc: &mut Acc<S>) {
+        match self {
+            AnyViscosity::Morris(t) => {
+                <MorrisViscosity<S::Real> as Term<S>>::pair(t, k, d, f, p, acc)
+            }
+            AnyViscosity::Pi(t) => <PiViscosity<S::Real> as Term<S>>::pair(t, k, d, f, p, acc),
+            AnyViscosity::Artificial(t) => {
+                <ArtificialViscosity<S::Real> as Term<S>>::pair(t, k, d, f, p, acc)
+            }
+        }
+    }
+    #[inline(always)]
+    fn viscous(
+        &self,
+        k: &Consts<S>,
+        d: &Dest<S>,
+        f: &Fields<'_, S>,
+        p: &Pair<S>,
+        acc: &mut Acc<S>,
+    ) {
+        match self {
+            AnyViscosity::Morris(t) => {
+                <MorrisViscosity<S::Real> as Term<S>>::viscous(t, k, d, f, p, acc)
+            }
+            AnyViscosity::Pi(t) => <PiViscosity<S::Real> as Term<S>>::viscous(t, k, d, f, p, acc),
+            AnyViscosity::Artificial(t) => {
+                <ArtificialViscosity<S::Real> as Term<S>>::viscous(t, k, d, f, p, acc)
+            }
+        }
+    }
+}

@@ -1,0 +1,359 @@
+//! The chunked update API, every error variant, and no panic on any input.
+
+mod common;
+
+use common::*;
+use proptest::prelude::*;
+use sph_core::exec::Chunked;
+use sph_core::prelude::*;
+
+type Forces = (Continuity, PressureGradient, MorrisViscosity<f64>);
+
+fn disordered_channel(
+    buffers: &mut Buffers<D2<f64>>,
+    n: usize,
+    nx: usize,
+) -> Solver<'_, D2<f64>, CubicSpline, Libm, SummationDensity, Forces> {
+    let dx = 1.0 / n as f64;
+    let domain = channel(nx as f64 * dx, 1.0, 0.01);
+    let params = Params::new(
+        1.3 * dx,
+        Eos::Linear {
+            rho0: 1.0,
+            c0: 1.0,
+            p0: 0.0,
+        },
+    );
+    let forces = (Continuity, PressureGradient, MorrisViscosity { mu: 0.01 });
+    Solver::new(
+        params,
+        domain,
+        buffers.storage(),
+        n * nx,
+        SummationDensity,
+        forces,
+    )
+    .unwrap()
+}
+
+fn disordered_buffers(n: usize, nx: usize, seed: u64) -> Buffers<D2<f64>> {
+    let dx = 1.0 / n as f64;
+    let mut rng = Rng(seed);
+    let x: Vec<V2> = lattice_2d(nx, n, dx)
+        .into_iter()
+        .map(|p| {
+            V2::new([
+                p[0] + 0.3 * dx * rng.next(),
+                (p[1] + 0.3 * dx * rng.next()).clamp(0.0, 1.0),
+            ])
+        })
+        .collect();
+    let v: Vec<V2> = x
+        .iter()
+        .map(|_| V2::new([0.01 * rng.next(), 0.01 * rng.next()]))
+        .collect();
+    let domain = channel(nx as f64 * dx, 1.0, 0.0);
+    Buffers::new(
+        &x,
+        &v,
+        dx * dx,
+        1.0,
+        4 * n * nx,
+        cells_for::<CubicSpline>(&domain, 1.3 * dx),
+    )
+}
+
+#[test]
+fn random_chunks_in_random_order_give_bitwise_the_same_rates() {
+    let (n, nx) = (20, 7);
+    let mut b = disordered_buffers(n, nx, 3);
+    let s = disordered_channel(&mut b, n, nx);
+    let total = s.n_fluid();
+    let reference: Vec<V2> = s.accelerations().to_vec();
+    let reference_drho: Vec<f64> = s.density_rates().to_vec();
+    assert!(
+        reference_drho.iter().any(|d| *d != 0.0),
+        "the continuity term must be exercised"
+    );
+    let mut rng = Rng(99);
+    for _ in 0..20 {
+        // A random partition of 0..total.
+        let mut cuts: Vec<usize> = (0..rng.below(12)).map(|_| rng.below(total)).collect();
+        cuts.extend([0, total]);
+        cuts.sort_unstable();
+        cuts.dedup();
+        let mut ranges: Vec<(usize, usize)> = cuts.windows(2).map(|w| (w[0], w[1])).collect();
+        // Random order.
+        for k in (1..ranges.len()).rev() {
+            ranges.swap(k, rng.below(k + 1));
+        }
+        let mut dv = vec![V2::zero(); total];
+        let mut drho = vec![0.0; total];
+        for (a, b) in ranges {
+            s.rates_range(a, &mut dv[a..b], &mut drho[a..b]).unwrap();
+        }
+        for i in 0..total {
+            assert_eq!(dv[i][0].to_bits(), reference[i][0].to_bits());
+            assert_eq!(dv[i][1].to_bits(), reference[i][1].to_bits());
+            assert_eq!(drho[i].to_bits(), reference_drho[i].to_bits());
+        }
+    }
+    let mut rho = vec![0.0; total];
+    s.density_range(0, &mut rho).unwrap();
+    assert_eq!(rho, s.densities());
+}
+
+#[test]
+fn chunked_stepping_matches_serial_stepping_bitwise() {
+    let (n, nx) = (16, 6);
+    let mut b1 = disordered_buffers(n, nx, 8);
+    let mut b2 = disordered_buffers(n, nx, 8);
+    let mut serial = disordered_channel(&mut b1, n, nx);
+    let mut chunked = disordered_channel(&mut b2, n, nx);
+    let dt = 0.5 * serial.limits().min();
+    for _ in 0..30 {
+        serial.step(dt).unwrap();
+        chunked.step_with(&Chunked { size: 7 }, dt).unwrap();
+    }
+    assert_eq!(serial.positions(), chunked.positions());
+    assert_eq!(serial.velocities(), chunked.velocities());
+    assert_eq!(serial.densities(), chunked.densities());
+}
+
+#[test]
+fn range_arguments_are_checked() {
+    let (n, nx) = (10, 6);
+    let mut b = disordered_buffers(n, nx, 1);
+    let s = disordered_channel(&mut b, n, nx);
+    let mut dv = vec![V2::zero(); 5];
+    let mut drho = vec![0.0; 4];
+    assert!(matches!(
+        s.rates_range(0, &mut dv, &mut drho),
+        Err(Error::LengthMismatch { .. })
+    ));
+    let mut drho = vec![0.0; 5];
+    assert!(matches!(
+        s.rates_range(58, &mut dv, &mut drho),
+        Err(Error::InvalidParameter { name: "range", .. })
+    ));
+    assert!(matches!(
+        s.rates_range(usize::MAX, &mut dv, &mut drho),
+        Err(Error::InvalidParameter { .. })
+    ));
+}
+
+type Scene<'a> = Solver<
+    'a,
+    D2<f64>,
+    CubicSpline,
+    Libm,
+    SummationDensity,
+    (PressureGradient, MorrisViscosity<f64>),
+>;
+
+/// Builds a 10 x 6 channel scene from parts that a test may break.
+fn build(b: &mut Buffers<D2<f64>>, h: f64, n_fluid: usize) -> Result<Scene<'_>> {
+    let domain = channel(0.6, 1.0, 0.0);
+    Solver::new(
+        Params::new(
+            h,
+            Eos::Linear {
+                rho0: 1.0,
+                c0: 1.0,
+                p0: 0.0,
+            },
+        ),
+        domain,
+        b.storage(),
+        n_fluid,
+        SummationDensity,
+        (PressureGradient, MorrisViscosity { mu: 0.01 }),
+    )
+}
+
+fn lattice_buffers(spare: usize) -> Buffers<D2<f64>> {
+    let x = lattice_2d(6, 10, 0.1);
+    let v = vec![V2::zero(); x.len()];
+    Buffers::new(
+        &x,
+        &v,
+        0.01,
+        1.0,
+        spare,
+        cells_for::<CubicSpline>(&channel(0.6, 1.0, 0.0), 0.13),
+    )
+}
+
+#[test]
+fn each_error_names_what_and_where() {
+    // Ghost capacity: 12 rows near the walls need ghosts, none reserved.
+    let mut b = lattice_buffers(0);
+    match build(&mut b, 0.13, 60) {
+        Err(Error::CapacityExceeded {
+            buffer: "ghosts",
+            needed,
+            available: 0,
+        }) => assert!(needed > 0),
+        other => panic!("{other:?}"),
+    }
+    // More fluid than capacity.
+    let mut b = lattice_buffers(0);
+    assert!(matches!(
+        build(&mut b, 0.13, 61),
+        Err(Error::CapacityExceeded {
+            buffer: "particles",
+            ..
+        })
+    ));
+    // A slice of the wrong length.
+    let mut b = lattice_buffers(40);
+    b.v.pop();
+    assert!(matches!(
+        build(&mut b, 0.13, 60),
+        Err(Error::LengthMismatch { buffer: "v", .. })
+    ));
+    // Invalid parameter.
+    let mut b = lattice_buffers(40);
+    assert!(matches!(
+        build(&mut b, -0.13, 60),
+        Err(Error::InvalidParameter { name: "h", .. })
+    ));
+    // Non-finite input.
+    let mut b = lattice_buffers(40);
+    b.v[7] = V2::new([f64::NAN, 0.0]);
+    assert_eq!(
+        build(&mut b, 0.13, 60).err(),
+        Some(Error::NonFinite {
+            particle: 7,
+            field: "velocity"
+        })
+    );
+    // Outside the domain (through the lower wall).
+    let mut b = lattice_buffers(40);
+    b.x[3] = V2::new([0.35, -0.01]);
+    assert!(matches!(
+        build(&mut b, 0.13, 60),
+        Err(Error::OutsideDomain {
+            particle: 3,
+            axis: 1,
+            ..
+        })
+    ));
+    // Non-positive mass.
+    let mut b = lattice_buffers(40);
+    b.m[0] = 0.0;
+    assert!(matches!(
+        build(&mut b, 0.13, 60),
+        Err(Error::InvalidParameter { name: "mass", .. })
+    ));
+    // Bad time step, then a blow-up reported with step and particle.
+    let mut b = lattice_buffers(40);
+    b.v[20] = V2::new([0.5, 0.0]);
+    let mut s = build(&mut b, 0.13, 60).unwrap();
+    assert!(matches!(
+        s.step(-1.0),
+        Err(Error::InvalidParameter { name: "dt", .. })
+    ));
+    assert!(matches!(
+        s.step(f64::NAN),
+        Err(Error::InvalidParameter { name: "dt", .. })
+    ));
+    let huge = 1e4 * s.limits().min();
+    let mut result = Ok(());
+    for _ in 0..50 {
+        result = s.step(huge);
+        if result.is_err() {
+            break;
+        }
+    }
+    match result {
+        Err(e @ Error::Unstable { step, .. }) => {
+            assert!(step >= 1);
+            // Later calls keep reporting the same failure.
+            assert_eq!(s.step(1e-6), Err(e));
+        }
+        other => panic!("expected an unstable run, got {other:?}"),
+    }
+}
+
+#[test]
+fn degenerate_scenes_run_without_nan() {
+    // An empty domain.
+    let mut b = Buffers::<D2<f64>>::new(
+        &[],
+        &[],
+        1.0,
+        1.0,
+        4,
+        cells_for::<CubicSpline>(&channel(0.6, 1.0, 0.0), 0.13),
+    );
+    let mut s = build(&mut b, 0.13, 0).unwrap();
+    s.step(1e-3).unwrap();
+    assert_eq!(s.n_fluid(), 0);
+    // One particle, exactly on the lower wall, and two coincident particles on a cell edge.
+    let x = [
+        V2::new([0.3, 0.0]),
+        V2::new([0.26, 0.52]),
+        V2::new([0.26, 0.52]),
+    ];
+    let v = [V2::zero(); 3];
+    let mut b = Buffers::<D2<f64>>::new(
+        &x,
+        &v,
+        0.01,
+        1.0,
+        8,
+        cells_for::<CubicSpline>(&channel(0.6, 1.0, 0.0), 0.13),
+    );
+    let mut s = build(&mut b, 0.13, 3).unwrap();
+    for _ in 0..10 {
+        s.step(1e-3).unwrap();
+    }
+    assert!(s.velocities().iter().all(|v| v.is_finite()));
+    assert!(s.densities().iter().all(|r| r.is_finite() && *r > 0.0));
+    // Capacity exactly full: 6 x 10 lattice, ghosts for 2 rows x 6 per wall x 2 walls (h = 0.13, 2h < 0.3).
+    let mut b = lattice_buffers(0);
+    let needed = match build(&mut b, 0.13, 60) {
+        Err(Error::CapacityExceeded { needed, .. }) => needed,
+        other => panic!("{other:?}"),
+    };
+    let mut b = lattice_buffers(needed);
+    let mut s = build(&mut b, 0.13, 60).unwrap();
+    assert_eq!(s.n_ghost(), needed);
+    s.step(1e-3).unwrap();
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+
+    /// Arbitrary (often invalid) input never panics: it is `Ok` or a clear `Err`.
+    #[test]
+    fn no_panic_on_arbitrary_input(
+        h in prop_oneof![Just(f64::NAN), Just(-1.0), Just(0.0), 1e-3f64..0.4, Just(1e30)],
+        eta2 in prop_oneof![Just(0.0), Just(-1.0), 0.0f64..0.1],
+        c0 in prop_oneof![Just(0.0), Just(f64::INFINITY), 0.1f64..10.0],
+        pts in proptest::collection::vec(
+            (prop_oneof![-0.1f64..0.7, Just(0.0), Just(0.6), Just(f64::NAN)], prop_oneof![-0.1f64..1.1, Just(0.0), Just(1.0)]),
+            0..40),
+        spare in 0usize..60,
+        cells in 0usize..400,
+        dt in prop_oneof![Just(0.0), Just(f64::NAN), 1e-6f64..1e2],
+    ) {
+        let x: Vec<V2> = pts.iter().map(|&(a, b)| V2::new([a, b])).collect();
+        let v = vec![V2::new([0.01, 0.0]); x.len()];
+        let mut b = Buffers::<D2<f64>>::new(&x, &v, 0.01, 1.0, spare, cells);
+        let domain = channel(0.6, 1.0, 0.1);
+        let params = Params::new(h, Eos::Linear { rho0: 1.0, c0, p0: 0.0 }).with_eta2(eta2);
+        let built = Solver::<D2<f64>, CubicSpline, Libm, _, _>::new(
+            params, domain, b.storage(), x.len(), SummationDensity, (PressureGradient, MorrisViscosity { mu: 0.01 }),
+        );
+        if let Ok(mut s) = built {
+            for _ in 0..5 {
+                if s.step(dt).is_err() {
+                    break;
+                }
+            }
+            prop_assert!(s.velocities().iter().all(|v| v.is_finite()) || s.step(dt).is_err());
+        }
+    }
+}
