@@ -1,2 +1,293 @@
-//! Placeholder.
-fn main() {}
+//! The `sph` command-line tool: a thin shell over `sph-std`.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Args, Parser, Subcommand};
+use sph_std::config::{
+    CouetteConfig, DensityMode, KernelName, MathBackend, Precision, ViscosityForm,
+};
+use sph_std::error::Result;
+use sph_std::{couette, output, progress};
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "sph",
+    version,
+    about = "Smoothed particle hydrodynamics: validation cases and studies"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Impulsively started Couette flow against the exact series solution.
+    ///
+    /// Writes summary.json, profile.csv, profiles.png and config.toml (and
+    /// VTK snapshots with --vtk) to the output directory and prints the
+    /// errors at each output time. Every flag has a config-file key with the
+    /// same words (underscores for dashes); flags override the file.
+    Couette(CouetteArgs),
+}
+
+fn parse_name<T: std::str::FromStr<Err = String>>(s: &str) -> std::result::Result<T, String> {
+    s.parse()
+}
+
+#[derive(Args, Debug, Default)]
+struct CouetteArgs {
+    /// TOML configuration file (see examples/couette.toml); flags override it.
+    #[arg(long, value_name = "FILE")]
+    config: Option<PathBuf>,
+    /// Output directory [default: out/couette].
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+    /// Fluid particles across the gap, 4 to 4000 [default: 40].
+    #[arg(long, value_name = "N")]
+    particles_across: Option<usize>,
+    /// Overlap factor beta = h/dx, 1.0 to 3.0 [default: 1.3].
+    #[arg(long, value_name = "B", allow_hyphen_values = true)]
+    beta: Option<f64>,
+    /// Kernel: cubic, quintic, wendland-c2, wendland-c4, gaussian [default: cubic].
+    #[arg(long, value_name = "NAME", value_parser = parse_name::<KernelName>)]
+    kernel: Option<KernelName>,
+    /// Viscous term: morris, pi, artificial [default: morris].
+    #[arg(long, value_name = "FORM", value_parser = parse_name::<ViscosityForm>)]
+    viscosity: Option<ViscosityForm>,
+    /// Density: summation, continuity [default: summation].
+    #[arg(long, value_name = "MODE", value_parser = parse_name::<DensityMode>)]
+    density: Option<DensityMode>,
+    /// Precision: f32, f64 [default: f64].
+    #[arg(long, value_name = "P", value_parser = parse_name::<Precision>)]
+    precision: Option<Precision>,
+    /// Math backend: libm, micromath (f32 only) [default: libm].
+    #[arg(long, value_name = "M", value_parser = parse_name::<MathBackend>)]
+    math: Option<MathBackend>,
+    /// Worker threads; 0 = all cores, 1 = serial without rayon [default: 0].
+    #[arg(long, value_name = "T")]
+    threads: Option<usize>,
+    /// End time in seconds [default: 1].
+    #[arg(long, value_name = "S", allow_hyphen_values = true)]
+    t_end: Option<f64>,
+    /// Time step as a fraction of the smallest stability limit, in (0, 1] [default: 0.7].
+    #[arg(long, value_name = "F", allow_hyphen_values = true)]
+    dt_factor: Option<f64>,
+    /// Viscous regulariser eta^2 as a fraction of h^2, 0 to 1 [default: 0.01].
+    #[arg(long, value_name = "F", allow_hyphen_values = true)]
+    eta2: Option<f64>,
+    /// Gap between the plates 2L in metres [default: 0.001].
+    #[arg(long, value_name = "M", allow_hyphen_values = true)]
+    gap: Option<f64>,
+    /// Kinematic viscosity in m^2/s [default: 0.000001].
+    #[arg(long, value_name = "NU", allow_hyphen_values = true)]
+    nu: Option<f64>,
+    /// Reference density in kg/m^3 [default: 1000].
+    #[arg(long, value_name = "RHO", allow_hyphen_values = true)]
+    rho0: Option<f64>,
+    /// Speed of the moving plate in m/s [default: 0.0000125].
+    #[arg(long, value_name = "U", allow_hyphen_values = true)]
+    u_wall: Option<f64>,
+    /// Sound speed as a multiple of the plate speed, at least 1 [default: 10].
+    #[arg(long, value_name = "F", allow_hyphen_values = true)]
+    sound_speed_factor: Option<f64>,
+    /// Artificial-viscosity alpha; 0 matches nu [default: 0].
+    #[arg(long, value_name = "A", allow_hyphen_values = true)]
+    alpha: Option<f64>,
+    /// Width of the periodic strip in kernel support radii, at least 2 [default: 2].
+    #[arg(long, value_name = "W", allow_hyphen_values = true)]
+    strip_supports: Option<f64>,
+    /// Output times in seconds, comma separated [default: 0.0225,0.045,0.1125,0.225,1].
+    #[arg(
+        long,
+        value_name = "T,..",
+        value_delimiter = ',',
+        allow_hyphen_values = true
+    )]
+    output_times: Option<Vec<f64>>,
+    /// Write VTK particle snapshots (.vtp and a .pvd index) for ParaView.
+    #[arg(long)]
+    vtk: bool,
+    /// No progress bar and no table.
+    #[arg(long)]
+    quiet: bool,
+}
+
+impl CouetteArgs {
+    /// The configuration: defaults, then the file, then the flags.
+    fn config(&self) -> Result<CouetteConfig> {
+        let mut c = match &self.config {
+            Some(path) => CouetteConfig::from_file(path)?,
+            None => CouetteConfig::default(),
+        };
+        macro_rules! set {
+            ($($field:ident),+) => {
+                $(if let Some(v) = self.$field.clone() { c.$field = v; })+
+            };
+        }
+        set!(
+            out,
+            particles_across,
+            beta,
+            kernel,
+            viscosity,
+            density,
+            precision,
+            math,
+            threads,
+            t_end,
+            dt_factor,
+            eta2,
+            gap,
+            nu,
+            rho0,
+            u_wall,
+            sound_speed_factor,
+            alpha,
+            strip_supports,
+            output_times
+        );
+        c.vtk |= self.vtk;
+        c.quiet |= self.quiet;
+        c.validate()?;
+        Ok(c)
+    }
+}
+
+fn run_couette(args: &CouetteArgs) -> Result<()> {
+    let config = args.config()?;
+    let created = output::prepare_dir(&config.out)?;
+    let bar = progress::Bar::new("couette", config.quiet);
+    let run = match couette::run(&config, &bar) {
+        Ok(run) => run,
+        Err(e) => {
+            if created {
+                output::remove_if_empty(&config.out);
+            }
+            return Err(e);
+        }
+    };
+    let written = output::write_couette(&run, &config.out)?;
+    if !config.quiet {
+        let g = &run.geometry;
+        let c = &run.config;
+        println!(
+            "Couette flow: {} kernel, beta {}, {} particles across ({} x {} = {} fluid), {} viscosity, {} density, {}/{}",
+            c.kernel, c.beta, c.particles_across, g.nx, c.particles_across, g.n_fluid, c.viscosity, c.density, c.precision, c.math
+        );
+        println!(
+            "dt = {:.4e} s ({} x the {} limit), {} steps, {} thread(s), {:.2} s",
+            run.dt_max,
+            c.dt_factor,
+            if run.limits.viscous <= run.limits.cfl.min(run.limits.force) {
+                "viscous"
+            } else {
+                "acoustic/force"
+            },
+            run.steps,
+            run.threads,
+            run.wall_seconds
+        );
+        println!();
+        print!("{}", output::error_table(&run));
+        let (linf, l2) = run.headline();
+        println!();
+        println!(
+            "Largest error over t* >= {}: Linf {:.3e} U, L2 {:.3e} U",
+            couette::HEADLINE_T_STAR,
+            linf,
+            l2
+        );
+        let names: Vec<String> = written
+            .iter()
+            .filter_map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
+            .collect();
+        println!("Wrote {} to {}", names.join(", "), config.out.display());
+    }
+    Ok(())
+}
+
+fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) if !e.use_stderr() => {
+            // --help and --version.
+            let _ = e.print();
+            return ExitCode::SUCCESS;
+        }
+        Err(e) => {
+            // One line: what was wrong, with the accepted values.
+            let text = e.to_string();
+            let first = text
+                .lines()
+                .next()
+                .unwrap_or("invalid arguments")
+                .trim_start_matches("error: ");
+            eprintln!("sph: error: {first} (see sph --help)");
+            return ExitCode::from(2);
+        }
+    };
+    let result = match &cli.command {
+        Command::Couette(args) => run_couette(args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("sph: error: {e}");
+            ExitCode::from(e.exit_code() as u8)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+
+    #[test]
+    fn help_states_the_real_defaults() {
+        let mut cmd = Cli::command();
+        let help = cmd
+            .find_subcommand_mut("couette")
+            .unwrap()
+            .render_long_help()
+            .to_string();
+        let d = CouetteConfig::default();
+        for (flag, default) in [
+            ("--particles-across", d.particles_across.to_string()),
+            ("--beta", d.beta.to_string()),
+            ("--kernel", d.kernel.to_string()),
+            ("--viscosity", d.viscosity.to_string()),
+            ("--density", d.density.to_string()),
+            ("--precision", d.precision.to_string()),
+            ("--math", d.math.to_string()),
+            ("--threads", d.threads.to_string()),
+            ("--t-end", d.t_end.to_string()),
+            ("--dt-factor", d.dt_factor.to_string()),
+            ("--eta2", d.eta2.to_string()),
+            ("--gap", d.gap.to_string()),
+            ("--nu", d.nu.to_string()),
+            ("--rho0", d.rho0.to_string()),
+            ("--u-wall", d.u_wall.to_string()),
+            ("--sound-speed-factor", d.sound_speed_factor.to_string()),
+            ("--alpha", d.alpha.to_string()),
+            ("--strip-supports", d.strip_supports.to_string()),
+            ("--out", d.out.display().to_string()),
+        ] {
+            let at = help
+                .find(flag)
+                .unwrap_or_else(|| panic!("{flag} missing from help"));
+            let section = &help[at..];
+            let end = section[2..]
+                .find("\n  -")
+                .map(|e| e + 2)
+                .unwrap_or(section.len());
+            assert!(
+                section[..end].contains(&format!("[default: {default}]")),
+                "{flag}: help does not state the default {default}:\n{}",
+                &section[..end]
+            );
+        }
+    }
+}

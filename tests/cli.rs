@@ -1,0 +1,204 @@
+//! The `sph` command line as a user meets it: outputs, repeatability, bad input.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn sph() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_sph"))
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("sph-cli-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+fn quick_run(out: &Path, extra: &[&str]) -> std::process::Output {
+    sph()
+        .args([
+            "couette",
+            "--quiet",
+            "--particles-across",
+            "16",
+            "--t-end",
+            "0.05",
+            "--output-times",
+            "0.0225,0.05",
+        ])
+        .arg("--out")
+        .arg(out)
+        .args(extra)
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn a_run_writes_every_output_and_its_config_repeats_it_exactly() {
+    let out = scratch("run");
+    let result = quick_run(&out, &["--vtk"]);
+    assert!(
+        result.status.success(),
+        "{}",
+        String::from_utf8_lossy(&result.stderr)
+    );
+    for name in [
+        "summary.json",
+        "profile.csv",
+        "profiles.png",
+        "config.toml",
+        "particles.pvd",
+        "particles_0000.vtp",
+        "particles_0001.vtp",
+    ] {
+        assert!(out.join(name).is_file(), "{name} missing");
+    }
+    let summary = std::fs::read_to_string(out.join("summary.json")).unwrap();
+    for key in [
+        "\"y_lower\"",
+        "\"y_upper\"",
+        "\"U\"",
+        "\"nu\"",
+        "\"rho0\"",
+        "\"particles_across\"",
+        "\"beta\"",
+        "\"kernel\"",
+        "\"viscosity\"",
+        "\"precision\"",
+        "\"threads\"",
+        "\"t_end\"",
+        "\"steps\"",
+        "\"wall_seconds\"",
+        "\"linf_error\"",
+        "\"l2_error\"",
+        "\"errors\"",
+    ] {
+        assert!(summary.contains(key), "summary.json lacks {key}");
+    }
+    let csv = std::fs::read_to_string(out.join("profile.csv")).unwrap();
+    assert!(csv.starts_with("t,y,vx,vx_exact\n"));
+    assert_eq!(csv.lines().count(), 1 + 2 * 16 * csv_rows_per_height(&csv));
+    assert_eq!(
+        &std::fs::read(out.join("profiles.png")).unwrap()[1..4],
+        b"PNG"
+    );
+    // The written config reproduces the run bit for bit.
+    let again = scratch("again");
+    let status = sph()
+        .args(["couette", "--quiet", "--config"])
+        .arg(out.join("config.toml"))
+        .arg("--out")
+        .arg(&again)
+        .status()
+        .unwrap();
+    assert!(status.success());
+    assert_eq!(
+        csv,
+        std::fs::read_to_string(again.join("profile.csv")).unwrap()
+    );
+    let _ = std::fs::remove_dir_all(&out);
+    let _ = std::fs::remove_dir_all(&again);
+}
+
+/// Particles per row of the lattice (the strip width), read off the first time's rows.
+fn csv_rows_per_height(csv: &str) -> usize {
+    let first_t = csv
+        .lines()
+        .nth(1)
+        .unwrap()
+        .split(',')
+        .next()
+        .unwrap()
+        .to_string();
+    let ys: Vec<&str> = csv
+        .lines()
+        .skip(1)
+        .filter(|l| l.starts_with(&format!("{first_t},")))
+        .map(|l| l.split(',').nth(1).unwrap())
+        .collect();
+    ys.len() / 16
+}
+
+#[test]
+fn bad_input_is_one_line_exit_two_and_leaves_nothing() {
+    let cases: &[(&[&str], &[&str])] = &[
+        (&["--nu", "-1e-6"], &["nu", "-0.000001", "positive"]),
+        (&["--beta", "3.5"], &["beta", "3.5", "between 1.0 and 3.0"]),
+        (
+            &["--particles-across", "2"],
+            &["particles_across", "2", "between 4 and 4000"],
+        ),
+        (
+            &["--kernel", "spline"],
+            &["spline", "--kernel", "wendland-c2"],
+        ),
+        (
+            &["--config", "/nonexistent/sph.toml"],
+            &["/nonexistent/sph.toml", "read config"],
+        ),
+        (
+            &["--precision", "f64", "--math", "micromath"],
+            &["math", "micromath", "f32"],
+        ),
+        (
+            &["--strip-supports", "1"],
+            &["strip_supports", "1", "two kernel supports"],
+        ),
+    ];
+    for (args, words) in cases {
+        let out = scratch("bad");
+        let result = sph()
+            .arg("couette")
+            .args(*args)
+            .arg("--out")
+            .arg(&out)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&result.stderr);
+        assert_eq!(result.status.code(), Some(2), "{args:?}: {stderr}");
+        assert_eq!(
+            stderr.trim_end().lines().count(),
+            1,
+            "{args:?}: not one line: {stderr}"
+        );
+        for w in *words {
+            assert!(stderr.contains(w), "{args:?}: {stderr} lacks {w}");
+        }
+        assert!(!out.exists(), "{args:?} left {}", out.display());
+    }
+    // An output directory that cannot be created.
+    let result = quick_run(Path::new("/proc/sph-cannot-exist"), &[]);
+    assert_eq!(result.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&result.stderr).contains("/proc/sph-cannot-exist"));
+}
+
+#[test]
+fn a_bad_config_file_names_the_line_key_and_value() {
+    let dir = scratch("cfg");
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("c.toml");
+    std::fs::write(&file, "particles_across = 20\nkernel = \"spline\"\n").unwrap();
+    let result = sph()
+        .args(["couette", "--config"])
+        .arg(&file)
+        .arg("--out")
+        .arg(dir.join("out"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&result.stderr);
+    assert_eq!(result.status.code(), Some(2));
+    assert!(
+        stderr.contains("line 2")
+            && stderr.contains("kernel = \"spline\"")
+            && stderr.contains("cubic"),
+        "{stderr}"
+    );
+    assert!(!dir.join("out").exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn the_documented_example_config_is_the_default() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/couette.toml");
+    let documented = sph::std::config::CouetteConfig::from_file(&path).unwrap();
+    assert_eq!(documented, sph::std::config::CouetteConfig::default());
+}
