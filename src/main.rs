@@ -106,7 +106,7 @@ struct CouetteArgs {
         allow_hyphen_values = true
     )]
     output_times: Option<Vec<f64>>,
-    /// Write VTK particle snapshots (.vtp and a .pvd index) for ParaView.
+    /// Write VTK particle snapshots (.vtu and a .pvd index) for ParaView.
     #[arg(long)]
     vtk: bool,
     /// No progress bar and no table.

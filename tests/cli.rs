@@ -47,8 +47,8 @@ fn a_run_writes_every_output_and_its_config_repeats_it_exactly() {
         "profiles.png",
         "config.toml",
         "particles.pvd",
-        "particles_0000.vtp",
-        "particles_0001.vtp",
+        "particles_0000.vtu",
+        "particles_0001.vtu",
     ] {
         assert!(out.join(name).is_file(), "{name} missing");
     }

@@ -175,7 +175,7 @@ pub struct CouetteConfig {
     pub output_times: Vec<f64>,
     /// Output directory.
     pub out: PathBuf,
-    /// Write VTK particle snapshots (`.vtp`, with a `.pvd` index) for ParaView.
+    /// Write VTK particle snapshots (`.vtu`, with a `.pvd` index) for ParaView.
     pub vtk: bool,
     /// No progress bar and no table.
     pub quiet: bool,

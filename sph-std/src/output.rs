@@ -197,20 +197,18 @@ pub fn error_table(run: &CouetteRun) -> String {
     s
 }
 
-/// A `.vtp` (VTK XML PolyData, ASCII) file with the particles of `snap`.
-pub fn vtp(snap: &Snapshot) -> String {
+/// A `.vtu` (VTK XML UnstructuredGrid, ASCII, one vertex cell per particle)
+/// file with the particles of `snap`; ParaView, VisIt and meshio read it.
+pub fn vtu(snap: &Snapshot) -> String {
     let n = snap.x.len();
     let mut s = String::new();
     let _ = writeln!(s, "<?xml version=\"1.0\"?>");
     let _ = writeln!(
         s,
-        "<VTKFile type=\"PolyData\" version=\"0.1\" byte_order=\"LittleEndian\">"
+        "<VTKFile type=\"UnstructuredGrid\" version=\"0.1\" byte_order=\"LittleEndian\">"
     );
-    let _ = writeln!(s, "<PolyData>");
-    let _ = writeln!(
-        s,
-        "<Piece NumberOfPoints=\"{n}\" NumberOfVerts=\"{n}\" NumberOfLines=\"0\" NumberOfStrips=\"0\" NumberOfPolys=\"0\">"
-    );
+    let _ = writeln!(s, "<UnstructuredGrid>");
+    let _ = writeln!(s, "<Piece NumberOfPoints=\"{n}\" NumberOfCells=\"{n}\">");
     let _ = writeln!(s, "<PointData Vectors=\"velocity\" Scalars=\"density\">");
     let _ = writeln!(
         s,
@@ -241,7 +239,7 @@ pub fn vtp(snap: &Snapshot) -> String {
     }
     let _ = writeln!(s, "</DataArray>");
     let _ = writeln!(s, "</Points>");
-    let _ = writeln!(s, "<Verts>");
+    let _ = writeln!(s, "<Cells>");
     let _ = writeln!(
         s,
         "<DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">"
@@ -258,9 +256,17 @@ pub fn vtp(snap: &Snapshot) -> String {
         let _ = writeln!(s, "{i}");
     }
     let _ = writeln!(s, "</DataArray>");
-    let _ = writeln!(s, "</Verts>");
+    let _ = writeln!(
+        s,
+        "<DataArray type=\"UInt8\" Name=\"types\" format=\"ascii\">"
+    );
+    for _ in 0..n {
+        let _ = writeln!(s, "1");
+    }
+    let _ = writeln!(s, "</DataArray>");
+    let _ = writeln!(s, "</Cells>");
     let _ = writeln!(s, "</Piece>");
-    let _ = writeln!(s, "</PolyData>");
+    let _ = writeln!(s, "</UnstructuredGrid>");
     let _ = writeln!(s, "</VTKFile>");
     s
 }
@@ -299,8 +305,8 @@ pub fn write_couette(run: &CouetteRun, dir: &Path) -> Result<Vec<PathBuf>> {
     if run.config.vtk {
         let mut entries = Vec::new();
         for (k, snap) in run.snapshots.iter().enumerate() {
-            let name = format!("particles_{k:04}.vtp");
-            put(&name, vtp(snap).as_bytes())?;
+            let name = format!("particles_{k:04}.vtu");
+            put(&name, vtu(snap).as_bytes())?;
             entries.push((snap.t, name));
         }
         put("particles.pvd", pvd(&entries).as_bytes())?;
@@ -333,7 +339,7 @@ mod tests {
     }
 
     #[test]
-    fn vtp_is_well_formed_and_carries_every_particle() {
+    fn vtu_is_well_formed_and_carries_every_particle() {
         let snap = Snapshot {
             t: 0.5,
             x: vec![[0.0, 1.0], [2.0, 3.0]],
@@ -341,14 +347,14 @@ mod tests {
             rho: vec![1.0, 1.0],
             p: vec![0.0, 0.1],
         };
-        let s = vtp(&snap);
+        let s = vtu(&snap);
         assert!(s.contains("NumberOfPoints=\"2\""));
         assert_eq!(
             s.matches("<DataArray").count(),
             s.matches("</DataArray>").count()
         );
-        assert_eq!(s.matches("<DataArray").count(), 6);
+        assert_eq!(s.matches("<DataArray").count(), 7);
         assert!(s.contains("2e0 3e0 0"));
-        assert!(pvd(&[(0.5, "p.vtp".into())]).contains("timestep=\"0.5\""));
+        assert!(pvd(&[(0.5, "p.vtu".into())]).contains("timestep=\"0.5\""));
     }
 }
