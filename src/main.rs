@@ -8,7 +8,7 @@ use sph_std::config::{
     CouetteConfig, DensityMode, KernelName, MathBackend, Precision, ViscosityForm,
 };
 use sph_std::error::Result;
-use sph_std::{couette, output, progress};
+use sph_std::{bench, couette, output, progress};
 
 #[derive(Parser, Debug)]
 #[command(
@@ -29,7 +29,113 @@ enum Command {
     /// VTK snapshots with --vtk) to the output directory and prints the
     /// errors at each output time. Every flag has a config-file key with the
     /// same words (underscores for dashes); flags override the file.
-    Couette(CouetteArgs),
+    Couette(Box<CouetteArgs>),
+    /// Times a standard scene: particle-steps and pair interactions per second.
+    ///
+    /// The periodic boxes are timed after an untimed warm-up that disorders
+    /// the initial lattice. With --json the last line is one JSON object.
+    Bench(BenchArgs),
+}
+
+#[derive(Args, Debug)]
+struct BenchArgs {
+    /// Scene: box2d, box3d, couette [default: box2d].
+    #[arg(long, value_name = "NAME", default_value = "box2d", hide_default_value = true, value_parser = bench::Scene::parse)]
+    scene: bench::Scene,
+    /// Approximate number of fluid particles [default: 40000].
+    #[arg(
+        long,
+        value_name = "N",
+        default_value_t = 40_000,
+        hide_default_value = true
+    )]
+    n: usize,
+    /// Threads; 0 = all cores, 1 = serial without rayon [default: 1].
+    #[arg(long, value_name = "T", default_value_t = 1, hide_default_value = true)]
+    threads: usize,
+    /// Timed steps [default: 100].
+    #[arg(
+        long,
+        value_name = "S",
+        default_value_t = 100,
+        hide_default_value = true
+    )]
+    steps: usize,
+    /// Untimed warm-up steps that disorder the lattice [default: 300].
+    #[arg(
+        long,
+        value_name = "S",
+        default_value_t = 300,
+        hide_default_value = true
+    )]
+    warmup: usize,
+    /// Reorder particles by cell every this many neighbour builds; 0 = never [default: 1].
+    #[arg(long, value_name = "K", default_value_t = 1, hide_default_value = true)]
+    reorder_every: u32,
+    /// Scan cells in every pass instead of using Verlet neighbour lists.
+    #[arg(long)]
+    no_lists: bool,
+    /// Verlet skin as a fraction of the support radius [default: 0.1].
+    #[arg(
+        long,
+        value_name = "F",
+        default_value_t = 0.1,
+        hide_default_value = true
+    )]
+    skin: f64,
+    /// Print one JSON object as the last line.
+    #[arg(long)]
+    json: bool,
+}
+
+fn run_bench(args: &BenchArgs) -> Result<()> {
+    let report = bench::run(&bench::BenchConfig {
+        scene: args.scene,
+        n: args.n,
+        threads: args.threads,
+        steps: args.steps,
+        warmup: args.warmup,
+        reorder_every: args.reorder_every,
+        lists: !args.no_lists,
+        skin: args.skin,
+    })?;
+    println!(
+        "{} scene: {} particles, {} thread(s), {} steps in {:.3} s",
+        report.scene, report.n, report.threads, report.steps, report.seconds
+    );
+    println!(
+        "  neighbours per particle (itself included): {:.2}",
+        report.neighbours_mean
+    );
+    println!(
+        "  particle-steps per second:                 {:.4e}",
+        report.particle_steps_per_s
+    );
+    println!(
+        "  pair interactions per second:              {:.4e} ({} passes per step)",
+        report.pairs_per_s, report.passes_per_step
+    );
+    println!(
+        "  nanoseconds per pair:                      {:.2}",
+        report.ns_per_pair
+    );
+    println!(
+        "  bytes per particle:                        {:.0}",
+        report.bytes_per_particle
+    );
+    if args.json {
+        match serde_json::to_string(&report) {
+            Ok(line) => println!("{line}"),
+            Err(e) => {
+                return Err(sph_std::error::Error::config(
+                    "json",
+                    "report",
+                    e.to_string(),
+                ))
+            }
+        }
+    }
+    Ok(())
 }
 
 fn parse_name<T: std::str::FromStr<Err = String>>(s: &str) -> std::result::Result<T, String> {
@@ -230,6 +336,7 @@ fn main() -> ExitCode {
     };
     let result = match &cli.command {
         Command::Couette(args) => run_couette(args),
+        Command::Bench(args) => run_bench(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -32,6 +32,26 @@ impl<T: Send> Chunk for &mut [T] {
     }
 }
 
+/// A buffer of fixed-width rows (one row per particle) split at row boundaries.
+#[derive(Debug)]
+pub struct Rows<'a, T> {
+    /// The entries, `width` per row.
+    pub data: &'a mut [T],
+    /// Entries per row (at least one).
+    pub width: usize,
+}
+
+impl<T: Send> Chunk for Rows<'_, T> {
+    fn len(&self) -> usize {
+        self.data.len() / self.width.max(1)
+    }
+    fn split_at(self, mid: usize) -> (Self, Self) {
+        let width = self.width.max(1);
+        let (a, b) = self.data.split_at_mut((mid * width).min(self.data.len()));
+        (Rows { data: a, width }, Rows { data: b, width })
+    }
+}
+
 macro_rules! chunk_tuple {
     ($($T:ident $v:ident $i:tt),+) => {
         impl<$($T: Chunk),+> Chunk for ($($T,)+) {

@@ -66,7 +66,30 @@ fn pow6<F: Real>(x: F) -> F {
 
 const PI: f64 = core::f64::consts::PI;
 
-/// Cubic B-spline M4 (Monaghan & Lattanzio 1985), support `2h`.
+/// `max(x, 0)`, compiled to a branch-free instruction.
+#[inline(always)]
+fn pos<F: Real>(x: F) -> F {
+    x.max(F::ZERO)
+}
+
+/// `if c { a } else { b }` for finite `a`, `b`, as arithmetic:
+/// `[c] a + [!c] b` with exact 0/1 weights. A plain `if` on floats can be
+/// compiled into a branch (LLVM does so when an operand holds a division),
+/// and branches on `q` mispredict in the pair loop.
+#[inline(always)]
+fn select<F: Real>(c: bool, a: F, b: F) -> F {
+    let w = F::from_usize(usize::from(c));
+    w * a + (F::ONE - w) * b
+}
+
+// Kernels are written branch-free: every piece is a truncated power
+// `(k - q)_+^n`, and where `f'(q)/q` would divide by `q` near the origin the
+// polynomial valid on `q < 1` is selected instead, so `F` is exact and finite
+// at `q = 0`. Branches on `q` mispredict in the pair loop because `q` is
+// spread evenly over the support.
+
+/// Cubic B-spline M4 (Monaghan & Lattanzio 1985), support `2h`:
+/// `f(q) = (2 - q)_+^3 / 4 - (1 - q)_+^3`.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct CubicSpline;
 
@@ -82,27 +105,22 @@ impl Kernel for CubicSpline {
     }
     #[inline(always)]
     fn f<S: Space, M: Math<S::Real>>(q: S::Real) -> S::Real {
-        if q < S::Real::ONE {
-            S::Real::ONE - c::<S::Real>(1.5) * q * q + c::<S::Real>(0.75) * q * q * q
-        } else if q < S::Real::TWO {
-            c::<S::Real>(0.25) * pow3(S::Real::TWO - q)
-        } else {
-            S::Real::ZERO
-        }
+        let t1 = pos(S::Real::ONE - q);
+        let t2 = pos(S::Real::TWO - q);
+        c::<S::Real>(0.25) * pow3(t2) - pow3(t1)
     }
     #[inline(always)]
     fn df_q<S: Space, M: Math<S::Real>>(q: S::Real) -> S::Real {
-        if q < S::Real::ONE {
-            c::<S::Real>(-3.0) + c::<S::Real>(2.25) * q
-        } else if q < S::Real::TWO {
-            c::<S::Real>(-0.75) * pow2(S::Real::TWO - q) / q
-        } else {
-            S::Real::ZERO
-        }
+        let q = q.min(S::Real::TWO);
+        let inner = c::<S::Real>(-3.0) + c::<S::Real>(2.25) * q;
+        let t2 = pos(S::Real::TWO - q);
+        let outer = c::<S::Real>(-0.75) * pow2(t2) / q.max(S::Real::ONE);
+        select(q < S::Real::ONE, inner, outer)
     }
 }
 
-/// Quintic B-spline M6 (Morris 1996), support `3h`.
+/// Quintic B-spline M6 (Morris 1996), support `3h`:
+/// `f(q) = (3 - q)_+^5 - 6 (2 - q)_+^5 + 15 (1 - q)_+^5`.
 ///
 /// The 3D constant is `1 / (120 pi)`; the often quoted `3 / (359 pi)` is 0.3 % off.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -120,33 +138,21 @@ impl Kernel for QuinticSpline {
     }
     #[inline(always)]
     fn f<S: Space, M: Math<S::Real>>(q: S::Real) -> S::Real {
-        let one = S::Real::ONE;
-        let two = S::Real::TWO;
-        let three = c::<S::Real>(3.0);
-        if q < one {
-            pow5(three - q) - c::<S::Real>(6.0) * pow5(two - q) + c::<S::Real>(15.0) * pow5(one - q)
-        } else if q < two {
-            pow5(three - q) - c::<S::Real>(6.0) * pow5(two - q)
-        } else if q < three {
-            pow5(three - q)
-        } else {
-            S::Real::ZERO
-        }
+        let t1 = pos(S::Real::ONE - q);
+        let t2 = pos(S::Real::TWO - q);
+        let t3 = pos(c::<S::Real>(3.0) - q);
+        pow5(t3) - c::<S::Real>(6.0) * pow5(t2) + c::<S::Real>(15.0) * pow5(t1)
     }
     #[inline(always)]
     fn df_q<S: Space, M: Math<S::Real>>(q: S::Real) -> S::Real {
-        let one = S::Real::ONE;
-        let two = S::Real::TWO;
-        let three = c::<S::Real>(3.0);
-        if q < one {
-            c::<S::Real>(-120.0) + c::<S::Real>(120.0) * q * q - c::<S::Real>(50.0) * q * q * q
-        } else if q < two {
-            (c::<S::Real>(-5.0) * pow4(three - q) + c::<S::Real>(30.0) * pow4(two - q)) / q
-        } else if q < three {
-            c::<S::Real>(-5.0) * pow4(three - q) / q
-        } else {
-            S::Real::ZERO
-        }
+        let q = q.min(c::<S::Real>(3.0));
+        let inner =
+            c::<S::Real>(-120.0) + c::<S::Real>(120.0) * q * q - c::<S::Real>(50.0) * q * q * q;
+        let t2 = pos(S::Real::TWO - q);
+        let t3 = pos(c::<S::Real>(3.0) - q);
+        let outer =
+            (c::<S::Real>(-5.0) * pow4(t3) + c::<S::Real>(30.0) * pow4(t2)) / q.max(S::Real::ONE);
+        select(q < S::Real::ONE, inner, outer)
     }
 }
 
@@ -169,10 +175,9 @@ impl Kernel for WendlandC2 {
     }
     #[inline(always)]
     fn f<S: Space, M: Math<S::Real>>(q: S::Real) -> S::Real {
-        if q >= S::Real::TWO {
-            return S::Real::ZERO;
-        }
-        let t = S::Real::ONE - S::Real::HALF * q;
+        let t = pos(S::Real::ONE - S::Real::HALF * q);
+        // Clamped so that `t = 0` times the factor stays 0 even for an infinite `q`.
+        let q = q.min(S::Real::TWO);
         if S::DIM == 1 {
             pow3(t) * (S::Real::ONE + c::<S::Real>(1.5) * q)
         } else {
@@ -181,10 +186,7 @@ impl Kernel for WendlandC2 {
     }
     #[inline(always)]
     fn df_q<S: Space, M: Math<S::Real>>(q: S::Real) -> S::Real {
-        if q >= S::Real::TWO {
-            return S::Real::ZERO;
-        }
-        let t = S::Real::ONE - S::Real::HALF * q;
+        let t = pos(S::Real::ONE - S::Real::HALF * q);
         if S::DIM == 1 {
             c::<S::Real>(-3.0) * pow2(t)
         } else {
@@ -211,10 +213,8 @@ impl Kernel for WendlandC4 {
     }
     #[inline(always)]
     fn f<S: Space, M: Math<S::Real>>(q: S::Real) -> S::Real {
-        if q >= S::Real::TWO {
-            return S::Real::ZERO;
-        }
-        let t = S::Real::ONE - S::Real::HALF * q;
+        let t = pos(S::Real::ONE - S::Real::HALF * q);
+        let q = q.min(S::Real::TWO);
         if S::DIM == 1 {
             pow5(t) * (S::Real::ONE + c::<S::Real>(2.5) * q + S::Real::TWO * q * q)
         } else {
@@ -223,10 +223,8 @@ impl Kernel for WendlandC4 {
     }
     #[inline(always)]
     fn df_q<S: Space, M: Math<S::Real>>(q: S::Real) -> S::Real {
-        if q >= S::Real::TWO {
-            return S::Real::ZERO;
-        }
-        let t = S::Real::ONE - S::Real::HALF * q;
+        let t = pos(S::Real::ONE - S::Real::HALF * q);
+        let q = q.min(S::Real::TWO);
         if S::DIM == 1 {
             c::<S::Real>(-3.5) * pow4(t) * (S::Real::ONE + S::Real::TWO * q)
         } else {
@@ -253,19 +251,15 @@ impl Kernel for Gaussian {
     }
     #[inline(always)]
     fn f<S: Space, M: Math<S::Real>>(q: S::Real) -> S::Real {
-        if q < c::<S::Real>(3.0) {
-            M::exp(-q * q)
-        } else {
-            S::Real::ZERO
-        }
+        let inside = q < c::<S::Real>(3.0);
+        let q = q.min(c::<S::Real>(3.0));
+        select(inside, M::exp(-q * q), S::Real::ZERO)
     }
     #[inline(always)]
     fn df_q<S: Space, M: Math<S::Real>>(q: S::Real) -> S::Real {
-        if q < c::<S::Real>(3.0) {
-            c::<S::Real>(-2.0) * M::exp(-q * q)
-        } else {
-            S::Real::ZERO
-        }
+        let inside = q < c::<S::Real>(3.0);
+        let q = q.min(c::<S::Real>(3.0));
+        select(inside, c::<S::Real>(-2.0) * M::exp(-q * q), S::Real::ZERO)
     }
 }
 

@@ -150,12 +150,18 @@ impl<S: Space> Grid<S> {
         Some(index)
     }
 
-    /// Up to three `(cell coordinate, shift)` candidates along axis `a`
-    /// around coordinate `k`; returns how many were written.
+    /// The period along each axis (zero along bounded axes).
+    pub fn period(&self) -> S::Vector {
+        self.period
+    }
+
+    /// Up to three `(cell coordinate, shift, shift code)` candidates along
+    /// axis `a` around coordinate `k`; returns how many were written. The
+    /// code is 0 (no shift), 1 (`+period`) or 2 (`-period`).
     #[inline(always)]
-    fn axis_candidates(&self, a: usize, k: usize, out: &mut [(usize, S::Real); 3]) -> usize {
+    fn axis_candidates(&self, a: usize, k: usize, out: &mut [(usize, S::Real, u32); 3]) -> usize {
         if a >= S::DIM {
-            out[0] = (0, S::Real::ZERO);
+            out[0] = (0, S::Real::ZERO, 0);
             return 1;
         }
         let n = self.dims[a];
@@ -164,16 +170,16 @@ impl<S: Space> Grid<S> {
             let c = k as i64 + o;
             if c < 0 {
                 if self.periodic[a] {
-                    out[m] = ((c + n as i64) as usize, -self.period[a]);
+                    out[m] = ((c + n as i64) as usize, -self.period[a], 2);
                     m += 1;
                 }
             } else if c as usize >= n {
                 if self.periodic[a] {
-                    out[m] = (c as usize - n, self.period[a]);
+                    out[m] = (c as usize - n, self.period[a], 1);
                     m += 1;
                 }
             } else {
-                out[m] = (c as usize, S::Real::ZERO);
+                out[m] = (c as usize, S::Real::ZERO, 0);
                 m += 1;
             }
         }
@@ -269,6 +275,25 @@ impl<'a> CellList<'a> {
         Ok(())
     }
 
+    /// Writes the indices below `n` in cell order (the order of the last
+    /// build) into the per-particle cell-index buffer and returns them; that
+    /// buffer is rebuilt by the next [`Self::build`]. `None` unless the last
+    /// build covered at least `n` particles.
+    pub fn order_of_first(&mut self, n: usize) -> Option<&[u32]> {
+        if self.len < n {
+            return None;
+        }
+        let mut k = 0;
+        for &j in &self.sorted[..self.len] {
+            if (j as usize) < n {
+                self.cell[k] = j;
+                k += 1;
+            }
+        }
+        self.len = 0; // the cell indices are gone: the list must be rebuilt
+        Some(&self.cell[..k])
+    }
+
     /// Read-only view for the neighbour loops.
     pub fn view(&self) -> CellView<'_> {
         CellView {
@@ -314,6 +339,20 @@ impl CellView<'_> {
         i: usize,
         mut f: impl FnMut(usize, S::Vector, S::Real),
     ) {
+        self.for_each_neighbour_coded(grid, x, i, |j, _, d, r2| f(j, d, r2));
+    }
+
+    /// As [`Self::for_each_neighbour`], also passing the image's shift code:
+    /// two bits per axis `a` at bit `2a`, 0 for no shift, 1 for `+period`, 2
+    /// for `-period`, so that `r_ij = (x_i - x_j) - shift`.
+    #[inline(always)]
+    pub fn for_each_neighbour_coded<S: Space>(
+        &self,
+        grid: &Grid<S>,
+        x: &[S::Vector],
+        i: usize,
+        mut f: impl FnMut(usize, u32, S::Vector, S::Real),
+    ) {
         let xi = x[i];
         let ci = self.cell[i] as usize;
         let k = [
@@ -321,15 +360,16 @@ impl CellView<'_> {
             (ci / grid.dims[0]) % grid.dims[1],
             ci / (grid.dims[0] * grid.dims[1]),
         ];
-        let mut cand = [[(0usize, S::Real::ZERO); 3]; 3];
+        let mut cand = [[(0usize, S::Real::ZERO, 0u32); 3]; 3];
         let mut count = [0usize; 3];
         for a in 0..3 {
             count[a] = grid.axis_candidates(a, k[a], &mut cand[a]);
         }
         let (d0, d01) = (grid.dims[0], grid.dims[0] * grid.dims[1]);
-        for &(c2, s2) in &cand[2][..count[2]] {
-            for &(c1, s1) in &cand[1][..count[1]] {
-                for &(c0, s0) in &cand[0][..count[0]] {
+        for &(c2, s2, k2) in &cand[2][..count[2]] {
+            for &(c1, s1, k1) in &cand[1][..count[1]] {
+                for &(c0, s0, k0) in &cand[0][..count[0]] {
+                    let code = k0 | (k1 << 2) | (k2 << 4);
                     let mut shift = S::Vector::zero();
                     shift[0] = s0;
                     if S::DIM > 1 {
@@ -345,7 +385,7 @@ impl CellView<'_> {
                         let d = (xi - x[j]) - shift;
                         let r2 = d.norm2();
                         if r2 < grid.radius2 {
-                            f(j, d, r2);
+                            f(j, code, d, r2);
                         }
                     }
                 }

@@ -8,7 +8,7 @@
 //!
 //! 1. kick and drift: `v += dt/2 a`, `x += dt v`, predicted `v* = v + dt/2 a`
 //!    (continuity: `rho` likewise), all per fluid particle;
-//! 2. evaluate at the new positions: ghosts, cell list, density pass,
+//! 2. evaluate at the new positions: ghosts, neighbours, density pass,
 //!    equation of state, ghost copies, force pass (rates `a`, `d rho/dt`);
 //! 3. kick: `v += dt/2 a`, with checks for divergence.
 //!
@@ -21,7 +21,17 @@
 //! operator at set-up: no constant per viscous form is assumed, the form's
 //! discrete operator decides.
 //!
-//! Passes 1-3 run through an [`Executor`]; each writes only the range it is
+//! # Neighbours
+//! Without neighbour-list buffers, every pass scans the cells around each
+//! particle (least memory). With them (see [`Storage::neighbours`]), each
+//! particle's Verlet list holds every particle closer than `(1 + skin) R`
+//! and is reused until the fastest particle could have closed half the skin
+//! (`2 sum_steps max|v| dt >= skin R`), which keeps the lists exact. Ghosts
+//! then keep their sources between rebuilds and only move with them, and
+//! positions along periodic axes are wrapped at rebuilds only (between
+//! rebuilds they may lie up to half a skin outside the box).
+//!
+//! Passes run through an [`Executor`]; each writes only the range it is
 //! given, so the result is bitwise the same for any split (see
 //! [`Solver::rates_range`]).
 //!
@@ -33,7 +43,7 @@ use crate::boundary::{self, Ghost};
 use crate::domain::{Domain, Side};
 use crate::eos::Eos;
 use crate::error::{Error, Fault, Result};
-use crate::exec::{Executor, Max2, Serial};
+use crate::exec::{Executor, Max2, Rows, Serial};
 use crate::kernel::{Kernel, SmoothingKernel};
 use crate::math::Math;
 use crate::neighbour::{CellList, CellView, Grid};
@@ -43,11 +53,11 @@ use crate::terms::{Acc, Consts, Dest, Fields, Pair, SummationDensity, Term};
 
 /// Caller-provided per-particle slices (structure of arrays).
 ///
-/// All slices but the three cell-list buffers have the same length, the
-/// capacity: indices `0..n_fluid` hold fluid particles, the rest is reserved
-/// for ghosts. The caller fills `x`, `v`, `m` (and `rho` for continuity
-/// density) of the fluid; the rest is scratch. `cell_start` needs
-/// [`Solver::cells_needed`] entries.
+/// All per-particle slices have the same length, the capacity: indices
+/// `0..n_fluid` hold fluid particles, the rest is reserved for ghosts. The
+/// caller fills `x`, `v`, `m` (and `rho` for continuity density) of the
+/// fluid; the rest is scratch. `cell_start` needs [`Solver::cells_needed`]
+/// entries.
 #[derive(Debug)]
 pub struct Storage<'a, S: Space> {
     /// Positions, relative to the domain's lower corner.
@@ -76,9 +86,18 @@ pub struct Storage<'a, S: Space> {
     pub cell_sorted: &'a mut [u32],
     /// Cell list: cell of each particle (capacity entries).
     pub cell_index: &'a mut [u32],
+    /// Neighbour lists: one row of `width` entries per particle slot
+    /// (`capacity * width` entries), or empty to scan the cells in every
+    /// pass (least memory). A particle with more than `width` neighbours
+    /// within `(1 + skin) R` is reported as [`Error::CapacityExceeded`].
+    pub neighbours: &'a mut [u32],
+    /// Entries used in each row of `neighbours` (capacity entries, or empty
+    /// together with `neighbours`).
+    pub neighbour_counts: &'a mut [u32],
 }
 
-/// Bytes of [`Storage`] per particle slot for space `S` (cell starts excluded).
+/// Bytes of [`Storage`] per particle slot for space `S`, without neighbour
+/// lists (they add `4 * (width + 1)`) and cell starts.
 pub const fn bytes_per_particle<S: Space>() -> usize {
     let v = core::mem::size_of::<S::Vector>();
     let f = core::mem::size_of::<S::Real>();
@@ -100,11 +119,20 @@ pub struct Params<F> {
     /// Power iterations used to estimate the viscous operator's largest decay
     /// rate (see the module docs).
     pub viscous_iterations: u32,
+    /// Reorder the fluid particles by cell every this many cell-list builds
+    /// (0: never). Neighbours then sit close in memory, which pays off once
+    /// the arrays outgrow the cache; but particle indices change, so a caller
+    /// who follows particles by index must leave it off.
+    pub reorder_every: u32,
+    /// Verlet skin as a fraction of the support radius (neighbour lists
+    /// only; see the module docs).
+    pub skin: F,
 }
 
 impl<F: Real> Params<F> {
     /// Parameters with smoothing length `h`, equation of state `eos`, and
-    /// the defaults `eta2 = 0.01`, speed limit = sound speed, 60 power iterations.
+    /// the defaults `eta2 = 0.01`, speed limit = sound speed, 60 power
+    /// iterations, no reordering, skin 0.1.
     pub fn new(h: F, eos: Eos<F>) -> Self {
         Self {
             h,
@@ -112,12 +140,26 @@ impl<F: Real> Params<F> {
             eos,
             max_speed: F::ZERO,
             viscous_iterations: 60,
+            reorder_every: 0,
+            skin: F::from_f64(0.1),
         }
     }
 
     /// Sets the regulariser (fraction of `h^2`).
     pub fn with_eta2(mut self, eta2: F) -> Self {
         self.eta2 = eta2;
+        self
+    }
+
+    /// Reorders particles by cell every `every` cell-list builds (see the field).
+    pub fn with_reorder_every(mut self, every: u32) -> Self {
+        self.reorder_every = every;
+        self
+    }
+
+    /// Sets the Verlet skin (fraction of the support radius).
+    pub fn with_skin(mut self, skin: F) -> Self {
+        self.skin = skin;
         self
     }
 
@@ -133,6 +175,13 @@ impl<F: Real> Params<F> {
                 name: "eta2",
                 value: self.eta2.to_f64(),
                 rule: "the regulariser must be finite and not negative",
+            });
+        }
+        if !(self.skin.is_finite() && self.skin >= F::ZERO && self.skin <= F::ONE) {
+            return Err(Error::InvalidParameter {
+                name: "skin",
+                value: self.skin.to_f64(),
+                rule: "the Verlet skin must be between 0 and 1 (fraction of the support radius)",
             });
         }
         if !(self.max_speed.is_finite() && self.max_speed >= F::ZERO) {
@@ -194,18 +243,142 @@ struct Arrays<'a, S: Space> {
     drho: &'a mut [S::Real],
     rho_aux: &'a mut [S::Real],
     ghosts: &'a mut [Ghost],
+    nbr: &'a mut [u32],
+    nbr_count: &'a mut [u32],
+}
+
+/// Bits of a neighbour-list entry that hold the particle index; the six bits
+/// above hold the periodic image (two per axis, as in
+/// [`CellView::for_each_neighbour_coded`]).
+const INDEX_BITS: u32 = 26;
+const INDEX_MASK: u32 = (1 << INDEX_BITS) - 1;
+
+/// A row's count word: entries used in the low 16 bits; in the high 16 bits,
+/// how many of them (at the front of the row) lay inside the support at the
+/// last density pass.
+const COUNT_MASK: u32 = 0xFFFF;
+
+/// Where a pass finds the neighbours of a particle.
+#[derive(Clone, Copy, Debug)]
+enum Neighbours<'s> {
+    /// Scan the cells around it.
+    Cells(CellView<'s>),
+    /// Its row of a Verlet list; with `partitioned`, the density pass has
+    /// moved the entries inside the support to the front of each row at the
+    /// current positions, so the force pass visits just those.
+    Lists {
+        rows: &'s [u32],
+        counts: &'s [u32],
+        width: usize,
+        partitioned: bool,
+    },
 }
 
 /// What one pass reads, shared by every range.
 struct Pass<'s, S: Space, K: Kernel, M: Math<S::Real>> {
     kernel: &'s SmoothingKernel<S, K, M>,
     grid: &'s Grid<S>,
-    cells: CellView<'s>,
+    neighbours: Neighbours<'s>,
     consts: &'s Consts<S>,
     fields: Fields<'s, S>,
 }
 
 impl<S: Space, K: Kernel, M: Math<S::Real>> Pass<'_, S, K, M> {
+    /// Neighbour index and separation `(x_i - x_j) - shift` for a list entry.
+    #[inline(always)]
+    fn separation(&self, xi: S::Vector, entry: u32) -> (usize, S::Vector) {
+        let j = (entry & INDEX_MASK) as usize;
+        let code = entry >> INDEX_BITS;
+        let mut r_ij = xi - self.fields.x[j];
+        if code != 0 {
+            // A periodic image (rare): (x_i - x_j) - shift, as in the cell scan.
+            let signs = [S::Real::ZERO, S::Real::ONE, -S::Real::ONE, S::Real::ZERO];
+            let period = self.grid.period();
+            let mut shift = S::Vector::zero();
+            for a in 0..S::DIM {
+                shift[a] = period[a] * signs[((code >> (2 * a)) & 3) as usize];
+            }
+            r_ij -= shift;
+        }
+        (j, r_ij)
+    }
+
+    /// The density pass over a Verlet row it owns: accumulates the terms and
+    /// moves the entries inside the support to the front of the row (their
+    /// order kept); returns the accumulator and how many are inside.
+    #[inline(always)]
+    fn accumulate_partition<T: Term<S>>(
+        &self,
+        terms: &T,
+        i: usize,
+        row: &mut [u32],
+    ) -> (Acc<S>, usize) {
+        let f = &self.fields;
+        let d = Dest {
+            i,
+            v: f.v[i],
+            m: f.m[i],
+            rho: f.rho[i],
+            p: f.p[i],
+        };
+        let mut acc = Acc {
+            rho: S::Real::ZERO,
+            drho: S::Real::ZERO,
+            dv: S::Vector::zero(),
+        };
+        terms.init(self.consts, &d, &mut acc);
+        let xi = f.x[i];
+        let radius2 = self.kernel.radius2();
+        let mut inside = 0;
+        for e in 0..row.len() {
+            let (j, r_ij) = self.separation(xi, row[e]);
+            let r2 = r_ij.norm2();
+            if r2 < radius2 {
+                self.visit::<T, false>(terms, &d, &mut acc, j, r_ij, r2);
+                row.swap(e, inside);
+                inside += 1;
+            }
+        }
+        (acc, inside)
+    }
+
+    /// One pair: the shared pair quantities, then every term of the group.
+    #[inline(always)]
+    fn visit<T: Term<S>, const VISCOUS_ONLY: bool>(
+        &self,
+        terms: &T,
+        d: &Dest<S>,
+        acc: &mut Acc<S>,
+        j: usize,
+        r_ij: S::Vector,
+        r2: S::Real,
+    ) {
+        let f = &self.fields;
+        let (w, fk) = if T::NEEDS_W && T::NEEDS_F {
+            self.kernel.w_and_f(r2)
+        } else if T::NEEDS_W {
+            (self.kernel.w(r2), S::Real::ZERO)
+        } else if T::NEEDS_F {
+            (S::Real::ZERO, self.kernel.f(r2))
+        } else {
+            (S::Real::ZERO, S::Real::ZERO)
+        };
+        let pair = Pair {
+            j,
+            r_ij,
+            r2,
+            w,
+            f: fk,
+            grad: r_ij * fk,
+            v_ij: d.v - f.v[j],
+        };
+        if VISCOUS_ONLY {
+            terms.viscous(self.consts, d, f, &pair, acc);
+        } else {
+            terms.pair(self.consts, d, f, &pair, acc);
+        }
+    }
+
     /// Accumulates the terms `T` for destination `i` (only their viscous
     /// parts when `VISCOUS_ONLY`).
     #[inline(always)]
@@ -226,32 +399,42 @@ impl<S: Space, K: Kernel, M: Math<S::Real>> Pass<'_, S, K, M> {
         if !VISCOUS_ONLY {
             terms.init(self.consts, &d, &mut acc);
         }
-        self.cells
-            .for_each_neighbour(self.grid, f.x, i, |j, r_ij, r2| {
-                let (w, fk) = if T::NEEDS_W && T::NEEDS_F {
-                    self.kernel.w_and_f(r2)
-                } else if T::NEEDS_W {
-                    (self.kernel.w(r2), S::Real::ZERO)
-                } else if T::NEEDS_F {
-                    (S::Real::ZERO, self.kernel.f(r2))
+        match self.neighbours {
+            Neighbours::Cells(cells) => {
+                cells.for_each_neighbour(self.grid, f.x, i, |j, r_ij, r2| {
+                    self.visit::<T, VISCOUS_ONLY>(terms, &d, &mut acc, j, r_ij, r2);
+                })
+            }
+            Neighbours::Lists {
+                rows,
+                counts,
+                width,
+                partitioned,
+            } => {
+                let xi = f.x[i];
+                let word = counts.get(i).copied().unwrap_or(0);
+                let start = i * width;
+                let used = ((word & COUNT_MASK) as usize).min(width);
+                let row = rows.get(start..start + used).unwrap_or(&[]);
+                if partitioned {
+                    // Positions have not moved since the density pass sorted these in.
+                    let inside = ((word >> 16) as usize).min(used);
+                    for &entry in &row[..inside] {
+                        let (j, r_ij) = self.separation(xi, entry);
+                        self.visit::<T, VISCOUS_ONLY>(terms, &d, &mut acc, j, r_ij, r_ij.norm2());
+                    }
                 } else {
-                    (S::Real::ZERO, S::Real::ZERO)
-                };
-                let pair = Pair {
-                    j,
-                    r_ij,
-                    r2,
-                    w,
-                    f: fk,
-                    grad: r_ij * fk,
-                    v_ij: d.v - f.v[j],
-                };
-                if VISCOUS_ONLY {
-                    terms.viscous(self.consts, &d, f, &pair, &mut acc);
-                } else {
-                    terms.pair(self.consts, &d, f, &pair, &mut acc);
+                    let radius2 = self.kernel.radius2();
+                    for &entry in row {
+                        let (j, r_ij) = self.separation(xi, entry);
+                        let r2 = r_ij.norm2();
+                        if r2 < radius2 {
+                            self.visit::<T, VISCOUS_ONLY>(terms, &d, &mut acc, j, r_ij, r2);
+                        }
+                    }
                 }
-            });
+            }
+        }
         acc
     }
 }
@@ -279,6 +462,12 @@ pub struct Solver<'a, S: Space, K: Kernel, M: Math<S::Real>, D: Term<S>, T: Term
     amax2: S::Real,
     speed_limit2: S::Real,
     viscous_rate: f64,
+    builds: u64,
+    list_width: usize,
+    list_radius: S::Real,
+    travel: f64,
+    lists_fresh: bool,
+    partitioned: bool,
     failed: Option<Error>,
 }
 
@@ -298,7 +487,8 @@ where
     D: Term<S>,
     T: Term<S>,
 {
-    /// Entries the `cell_start` buffer needs for this domain and smoothing length.
+    /// Entries the `cell_start` buffer needs for this domain and smoothing
+    /// length (enough with or without neighbour lists).
     ///
     /// # Errors
     /// As [`SmoothingKernel::new`] and [`Grid::new`].
@@ -340,19 +530,25 @@ where
     ) -> Result<Self> {
         params.validate()?;
         let kernel = SmoothingKernel::<S, K, M>::new(params.h)?;
-        let grid = Grid::new(&domain, kernel.radius())?;
+        let cap = storage.x.len();
+        let list_width = Self::check_lists(&storage, cap)?;
+        let list_radius = if list_width > 0 {
+            kernel.radius() * (S::Real::ONE + params.skin)
+        } else {
+            kernel.radius()
+        };
+        let grid = Grid::new(&domain, list_radius)?;
         for a in 0..S::DIM {
             let walled =
                 domain.wall(a, Side::Lower).is_some() || domain.wall(a, Side::Upper).is_some();
-            if walled && domain.extent()[a] < kernel.radius() {
+            if walled && domain.extent()[a] < list_radius {
                 return Err(Error::InvalidParameter {
                     name: "extent",
                     value: domain.extent()[a].to_f64(),
-                    rule: "along an axis with walls the extent must be at least the kernel support radius",
+                    rule: "along an axis with walls the extent must be at least the kernel support radius (plus skin)",
                 });
             }
         }
-        let cap = storage.x.len();
         for (buffer, len) in [
             ("v", storage.v.len()),
             ("m", storage.m.len()),
@@ -455,6 +651,8 @@ where
             cell_start,
             cell_sorted,
             cell_index,
+            neighbours,
+            neighbour_counts,
         } = storage;
         let mut solver = Self {
             params,
@@ -475,6 +673,8 @@ where
                 drho,
                 rho_aux,
                 ghosts,
+                nbr: neighbours,
+                nbr_count: neighbour_counts,
             },
             cells: CellList::new(cell_start, cell_sorted, cell_index),
             n: n_fluid,
@@ -485,16 +685,60 @@ where
             amax2: S::Real::ZERO,
             speed_limit2,
             viscous_rate: 0.0,
+            builds: 0,
+            list_width,
+            list_radius,
+            travel: 0.0,
+            lists_fresh: false,
+            partitioned: false,
             failed: None,
         };
         solver.prepare(exec)?;
         Ok(solver)
     }
 
+    /// The width of the neighbour-list rows (0 without lists).
+    fn check_lists(storage: &Storage<'_, S>, cap: usize) -> Result<usize> {
+        if storage.neighbours.is_empty() && storage.neighbour_counts.is_empty() {
+            return Ok(0);
+        }
+        let width = storage.neighbours.len() / cap.max(1);
+        if width == 0 || width * cap != storage.neighbours.len() {
+            return Err(Error::LengthMismatch {
+                buffer: "neighbours",
+                expected: cap * width.max(1),
+                got: storage.neighbours.len(),
+            });
+        }
+        if storage.neighbour_counts.len() != cap {
+            return Err(Error::LengthMismatch {
+                buffer: "neighbour_counts",
+                expected: cap,
+                got: storage.neighbour_counts.len(),
+            });
+        }
+        if cap > INDEX_MASK as usize {
+            return Err(Error::CapacityExceeded {
+                buffer: "particles",
+                needed: cap,
+                available: INDEX_MASK as usize,
+            });
+        }
+        if width > COUNT_MASK as usize {
+            return Err(Error::InvalidParameter {
+                name: "neighbours",
+                value: width as f64,
+                rule: "neighbour-list rows may hold at most 65535 entries",
+            });
+        }
+        Ok(width)
+    }
+
     /// Evaluates the rates at the current state with `ve = v`, then estimates
     /// the viscous decay rate.
     fn prepare<E: Executor>(&mut self, exec: &E) -> Result<()> {
         let n = self.n;
+        self.lists_fresh = false;
         self.a.ve[..n].copy_from_slice(&self.a.v[..n]);
         self.evaluate(exec)?;
         self.viscous_rate = self.estimate_viscous_rate(exec)?;
@@ -563,6 +807,15 @@ where
         }
     }
 
+    fn sync_ghost_positions(&mut self) {
+        let n = self.n;
+        let (fluid, ghosts) = self.a.x.split_at_mut(n);
+        for (k, g) in self.a.ghosts[..self.n_ghost].iter().enumerate() {
+            ghosts[k] =
+                boundary::mirror_position(&self.domain, fluid[g.source as usize], g.mirrors);
+        }
+    }
+
     fn sync_ghost_thermo(&mut self) {
         let n = self.n;
         let (fluid_rho, ghost_rho) = self.a.rho.split_at_mut(n);
@@ -574,10 +827,12 @@ where
         }
     }
 
-    /// Runs a density group into `rho_aux[..n]`.
+    /// Runs a density group into `rho_aux[..n]`; with neighbour lists it also
+    /// partitions each row (see [`Neighbours::Lists`]).
     fn run_density<E: Executor, G: Term<S>>(&mut self, exec: &E, group: &G) -> Result<()> {
         let n = self.n;
         let total = n + self.n_ghost;
+        let width = self.list_width;
         let Arrays {
             x,
             ve,
@@ -585,42 +840,144 @@ where
             rho,
             p,
             rho_aux,
+            nbr,
+            nbr_count,
             ..
         } = &mut self.a;
+        let fields = Fields {
+            x: &x[..total],
+            v: &ve[..total],
+            m: &m[..total],
+            rho: &rho[..total],
+            p: &p[..total],
+        };
+        if width == 0 {
+            let pass = Pass {
+                kernel: &self.kernel,
+                grid: &self.grid,
+                neighbours: Neighbours::Cells(self.cells.view()),
+                consts: &self.consts,
+                fields,
+            };
+            return exec.run(&mut rho_aux[..n], &|start, out: &mut [S::Real]| {
+                for (k, o) in out.iter_mut().enumerate() {
+                    *o = pass.accumulate::<G, false>(group, start + k).rho;
+                }
+                Ok(())
+            });
+        }
         let pass = Pass {
             kernel: &self.kernel,
             grid: &self.grid,
-            cells: self.cells.view(),
-            consts: &self.consts,
-            fields: Fields {
-                x: &x[..total],
-                v: &ve[..total],
-                m: &m[..total],
-                rho: &rho[..total],
-                p: &p[..total],
+            neighbours: Neighbours::Lists {
+                rows: &[],
+                counts: &[],
+                width,
+                partitioned: false,
             },
+            consts: &self.consts,
+            fields,
         };
-        exec.run(&mut rho_aux[..n], &|start, out: &mut [S::Real]| {
-            for (k, o) in out.iter_mut().enumerate() {
-                *o = pass.accumulate::<G, false>(group, start + k).rho;
-            }
-            Ok(())
-        })
+        exec.run(
+            (
+                &mut rho_aux[..n],
+                Rows {
+                    data: &mut nbr[..n * width],
+                    width,
+                },
+                &mut nbr_count[..n],
+            ),
+            &|start, (out, rows, counts): (&mut [S::Real], Rows<'_, u32>, &mut [u32])| {
+                for (k, (o, word)) in out.iter_mut().zip(counts.iter_mut()).enumerate() {
+                    let used = ((*word & COUNT_MASK) as usize).min(width);
+                    let row = &mut rows.data[k * width..k * width + used];
+                    let (acc, inside) = pass.accumulate_partition::<G>(group, start + k, row);
+                    *o = acc.rho;
+                    *word = used as u32 | ((inside as u32) << 16);
+                }
+                Ok(())
+            },
+        )?;
+        self.partitioned = true;
+        Ok(())
     }
 
-    /// Ghosts, cell list, density, equation of state and forces at the
+    /// Ghosts and neighbours at the current positions: with lists, rebuilt
+    /// only when the skin may have been used up; without, every time.
+    fn update_neighbours<E: Executor>(&mut self, exec: &E) -> Result<()> {
+        self.partitioned = false;
+        if self.list_width == 0 {
+            self.build_cells(self.kernel.radius())?;
+            return Ok(());
+        }
+        let margin = (self.list_radius - self.kernel.radius()).to_f64();
+        if self.lists_fresh && 2.0 * self.travel < margin {
+            self.sync_ghost_positions();
+            return Ok(());
+        }
+        let n = self.n;
+        for i in 0..n {
+            self.a.x[i] = self.domain.wrap::<M>(self.a.x[i]);
+        }
+        self.build_cells(self.list_radius)?;
+        let total = n + self.n_ghost;
+        let width = self.list_width;
+        let view = self.cells.view();
+        let grid = &self.grid;
+        let x = &self.a.x[..total];
+        exec.run(
+            (
+                Rows {
+                    data: &mut self.a.nbr[..n * width],
+                    width,
+                },
+                &mut self.a.nbr_count[..n],
+            ),
+            &|start, (rows, counts): (Rows<'_, u32>, &mut [u32])| {
+                for (k, count) in counts.iter_mut().enumerate() {
+                    let row = &mut rows.data[k * width..(k + 1) * width];
+                    let mut used = 0usize;
+                    view.for_each_neighbour_coded(grid, x, start + k, |j, code, _, _| {
+                        if used < width {
+                            row[used] = j as u32 | (code << INDEX_BITS);
+                        }
+                        used += 1;
+                    });
+                    if used > width {
+                        return Err(Error::CapacityExceeded {
+                            buffer: "neighbours",
+                            needed: used,
+                            available: width,
+                        });
+                    }
+                    *count = used as u32;
+                }
+                Ok(())
+            },
+        )?;
+        self.travel = 0.0;
+        self.lists_fresh = true;
+        Ok(())
+    }
+
+    /// Reorders (when due), generates ghosts within `radius` of the walls and
+    /// sorts all particles into cells.
+    fn build_cells(&mut self, radius: S::Real) -> Result<()> {
+        let every = u64::from(self.params.reorder_every);
+        if every > 0 && self.builds > 0 && self.builds % every == 0 {
+            self.reorder_by_cell();
+        }
+        self.builds += 1;
+        let n = self.n;
+        self.n_ghost = boundary::generate(&self.domain, radius, self.a.x, n, self.a.ghosts)?;
+        self.cells.build(&self.grid, &self.a.x[..n + self.n_ghost])
+    }
+
+    /// Ghosts, neighbours, density, equation of state and forces at the
     /// current positions and pass velocities `ve`.
     fn evaluate<E: Executor>(&mut self, exec: &E) -> Result<()> {
         let n = self.n;
-        self.n_ghost = boundary::generate(
-            &self.domain,
-            self.kernel.radius(),
-            self.a.x,
-            n,
-            self.a.ghosts,
-        )?;
-        let total = n + self.n_ghost;
-        self.cells.build(&self.grid, &self.a.x[..total])?;
+        self.update_neighbours(exec)?;
         self.sync_ghost_kinematics(false);
         if !D::EMPTY {
             let density = self.density;
@@ -651,6 +1008,45 @@ where
         self.run_forces::<E, false>(exec)
     }
 
+    /// Permutes the fluid particles into the cell order of the last cell list.
+    ///
+    /// Called before a cell-list build, where `dv`, `drho` and the cell index
+    /// are about to be recomputed: they serve as scratch. The state that lives
+    /// across the evaluation (`x`, `v`, `ve`, `m`, `rho`, `rho_aux`) is permuted.
+    fn reorder_by_cell(&mut self) {
+        let n = self.n;
+        let Some(perm) = self.cells.order_of_first(n) else {
+            return;
+        };
+        if perm.len() != n {
+            return;
+        }
+        fn apply<T: Copy>(data: &mut [T], scratch: &mut [T], perm: &[u32]) {
+            scratch.copy_from_slice(data);
+            for (d, &p) in data.iter_mut().zip(perm) {
+                *d = scratch[p as usize];
+            }
+        }
+        let Arrays {
+            x,
+            v,
+            ve,
+            m,
+            rho,
+            rho_aux,
+            dv,
+            drho,
+            ..
+        } = &mut self.a;
+        let (dv, drho) = (&mut dv[..n], &mut drho[..n]);
+        apply(&mut x[..n], dv, perm);
+        apply(&mut v[..n], dv, perm);
+        apply(&mut ve[..n], dv, perm);
+        apply(&mut m[..n], drho, perm);
+        apply(&mut rho[..n], drho, perm);
+        apply(&mut rho_aux[..n], drho, perm);
+    }
+
     /// The force pass (or its viscous part) into `dv[..n]`, `drho[..n]`.
     fn run_forces<E: Executor, const VISCOUS_ONLY: bool>(&mut self, exec: &E) -> Result<()> {
         let n = self.n;
@@ -663,12 +1059,20 @@ where
             p,
             dv,
             drho,
+            nbr,
+            nbr_count,
             ..
         } = &mut self.a;
         let pass = Pass {
             kernel: &self.kernel,
             grid: &self.grid,
-            cells: self.cells.view(),
+            neighbours: neighbour_source(
+                &self.cells,
+                nbr,
+                nbr_count,
+                self.list_width,
+                self.partitioned,
+            ),
             consts: &self.consts,
             fields: Fields {
                 x: &x[..total],
@@ -752,9 +1156,9 @@ where
     /// [`Error::Unstable`] naming the step and the first particle at fault if
     /// a velocity, position or density becomes non-finite, a speed exceeds
     /// the limit, a density turns non-positive or a particle leaves the
-    /// domain; [`Error::CapacityExceeded`] if the ghosts outgrow the reserved
-    /// capacity. After an error the state is unspecified and every later call
-    /// returns the same error.
+    /// domain; [`Error::CapacityExceeded`] if the ghosts or the neighbour
+    /// lists outgrow their buffers. After an error the state is unspecified
+    /// and every later call returns the same error.
     pub fn step_with<E: Executor>(&mut self, exec: &E, dt: f64) -> Result<()> {
         if let Some(e) = self.failed {
             return Err(e);
@@ -780,7 +1184,9 @@ where
         let half = S::Real::from_f64(0.5 * dt);
         let summation = !D::EMPTY;
         let domain = self.domain;
-        {
+        // With Verlet lists, positions are wrapped at rebuilds only.
+        let wrap = self.list_width == 0;
+        let Max2(drift2, _) = {
             let Arrays {
                 x,
                 v,
@@ -801,17 +1207,19 @@ where
                     &mut rho_aux[..n],
                 ),
                 &|start, (x, v, ve, rho, rho_aux): DriftParts<'_, S>| {
+                    let mut fastest = S::Real::ZERO;
                     for k in 0..x.len() {
                         let i = start + k;
                         let a = dv[i];
                         let vh = v[k] + a * half;
                         v[k] = vh;
                         ve[k] = vh + a * half;
+                        fastest = fastest.max(vh.norm2());
                         let xn = x[k] + vh * dtf;
                         if !xn.is_finite() {
                             return Err(unstable(step, i, Fault::NonFinite { field: "position" }));
                         }
-                        let xn = domain.wrap::<M>(xn);
+                        let xn = if wrap { domain.wrap::<M>(xn) } else { xn };
                         if let Some((axis, c)) = domain.outside(xn) {
                             return Err(unstable(
                                 step,
@@ -838,10 +1246,11 @@ where
                             }
                         }
                     }
-                    Ok(())
+                    Ok(Max2(fastest, S::Real::ZERO))
                 },
-            )?;
-        }
+            )?
+        };
+        self.travel += libm::sqrt(drift2.to_f64()) * dt;
         self.evaluate(exec)?;
         let eos = self.params.eos;
         let limit2 = self.speed_limit2;
@@ -931,6 +1340,11 @@ where
         self.viscous_rate
     }
 
+    /// Cell-list builds so far (with neighbour lists: list rebuilds).
+    pub fn neighbour_builds(&self) -> u64 {
+        self.builds
+    }
+
     fn check_range(&self, start: usize, len: usize) -> Result<()> {
         match start.checked_add(len) {
             Some(end) if end <= self.n => Ok(()),
@@ -992,7 +1406,13 @@ where
         Pass {
             kernel: &self.kernel,
             grid: &self.grid,
-            cells: self.cells.view(),
+            neighbours: neighbour_source(
+                &self.cells,
+                self.a.nbr,
+                self.a.nbr_count,
+                self.list_width,
+                self.partitioned,
+            ),
             consts: &self.consts,
             fields: Fields {
                 x: &self.a.x[..total],
@@ -1024,7 +1444,9 @@ where
         self.step
     }
 
-    /// Fluid positions, relative to the domain's lower corner.
+    /// Fluid positions, relative to the domain's lower corner (with
+    /// neighbour lists, up to half a skin outside a periodic side between
+    /// rebuilds).
     pub fn positions(&self) -> &[S::Vector] {
         &self.a.x[..self.n]
     }
@@ -1077,5 +1499,25 @@ where
     /// The parameters.
     pub fn params(&self) -> &Params<S::Real> {
         &self.params
+    }
+}
+
+/// The neighbour source of a pass: lists when the solver has them, else cells.
+fn neighbour_source<'s>(
+    cells: &'s CellList<'_>,
+    rows: &'s [u32],
+    counts: &'s [u32],
+    width: usize,
+    partitioned: bool,
+) -> Neighbours<'s> {
+    if width > 0 {
+        Neighbours::Lists {
+            rows,
+            counts,
+            width,
+            partitioned,
+        }
+    } else {
+        Neighbours::Cells(cells.view())
     }
 }

@@ -5,6 +5,7 @@
 //! entries, with no allocator: put it in a `static` or on the stack, `push`
 //! the fluid particles, then hand [`Store::storage`] to the solver. Its size
 //! is known at compile time: `core::mem::size_of::<Store<S, N, C>>()`.
+//! It scans cells in every pass (no neighbour lists), the smallest memory bill.
 
 use heapless::Vec;
 
@@ -142,6 +143,8 @@ impl<S: Space, const N: usize, const C: usize> Store<S, N, C> {
                 cell_start: &mut self.cell_start,
                 cell_sorted: &mut self.cell_sorted,
                 cell_index: &mut self.cell_index,
+                neighbours: Default::default(),
+                neighbour_counts: Default::default(),
             },
             self.fluid,
         ))

@@ -253,8 +253,9 @@ impl<S: Space> Term<S> for MorrisViscosity<S::Real> {
         acc: &mut Acc<S>,
     ) {
         let j = p.j;
-        let coeff = f.m[j] * S::Real::TWO * self.mu / (d.rho * f.rho[j]) * p.f * p.r2
-            / regularised(p.r2, k.eta2);
+        // One division per pair.
+        let num = f.m[j] * S::Real::TWO * self.mu * p.f * p.r2;
+        let coeff = num / (d.rho * f.rho[j] * regularised(p.r2, k.eta2));
         acc.dv += p.v_ij * coeff;
     }
 }
@@ -290,8 +291,8 @@ impl<S: Space> Term<S> for PiViscosity<S::Real> {
     ) {
         let j = p.j;
         let factor = S::Real::TWO * S::Real::from_usize(S::DIM + 2);
-        let kij = factor * self.mu / (d.rho * f.rho[j]);
-        let coeff = f.m[j] * kij * p.v_ij.dot(p.r_ij) / regularised(p.r2, k.eta2) * p.f;
+        let num = f.m[j] * factor * self.mu * p.v_ij.dot(p.r_ij) * p.f;
+        let coeff = num / (d.rho * f.rho[j] * regularised(p.r2, k.eta2));
         acc.dv += p.r_ij * coeff;
     }
 }

@@ -75,6 +75,8 @@ pub struct Buffers<S: Space> {
     cell_start: Vec<u32>,
     cell_sorted: Vec<u32>,
     cell_index: Vec<u32>,
+    neighbours: Vec<u32>,
+    neighbour_counts: Vec<u32>,
 }
 
 impl<S: Space> Buffers<S> {
@@ -96,7 +98,18 @@ impl<S: Space> Buffers<S> {
             cell_start: vec![0; cells],
             cell_sorted: vec![0; capacity],
             cell_index: vec![0; capacity],
+            neighbours: Vec::new(),
+            neighbour_counts: Vec::new(),
         }
+    }
+
+    /// Adds Verlet neighbour lists of `width` entries per particle slot (see
+    /// `sph_core::solver::Storage::neighbours`); [`list_width`] suggests one.
+    pub fn with_lists(mut self, width: usize) -> Self {
+        let capacity = self.x.len();
+        self.neighbours = vec![0; capacity * width];
+        self.neighbour_counts = vec![0; capacity];
+        self
     }
 
     /// Views for a solver.
@@ -115,11 +128,28 @@ impl<S: Space> Buffers<S> {
             cell_start: &mut self.cell_start,
             cell_sorted: &mut self.cell_sorted,
             cell_index: &mut self.cell_index,
+            neighbours: &mut self.neighbours,
+            neighbour_counts: &mut self.neighbour_counts,
         }
     }
 
     /// Bytes held, in total.
     pub fn bytes(&self) -> usize {
-        self.x.len() * sph_core::solver::bytes_per_particle::<S>() + self.cell_start.len() * 4
+        self.x.len() * sph_core::solver::bytes_per_particle::<S>()
+            + (self.cell_start.len() + self.neighbours.len() + self.neighbour_counts.len()) * 4
     }
+}
+
+/// A neighbour-list width for a kernel of support `kappa h` with `h = beta dx`
+/// on a lattice in `dim` dimensions and a Verlet `skin`: the number of
+/// lattice points within `(1 + skin) kappa beta dx`, with 50 % headroom for
+/// compression and disorder, plus 8.
+pub fn list_width(dim: usize, kappa: f64, beta: f64, skin: f64) -> usize {
+    let r = (1.0 + skin) * kappa * beta;
+    let ball = match dim {
+        1 => 2.0 * r,
+        2 => std::f64::consts::PI * r * r,
+        _ => 4.0 / 3.0 * std::f64::consts::PI * r * r * r,
+    };
+    (1.5 * ball).ceil() as usize + 8
 }

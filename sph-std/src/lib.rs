@@ -15,6 +15,7 @@
 //! # Ok::<(), sph_std::error::Error>(())
 //! ```
 
+pub mod bench;
 pub mod config;
 pub mod couette;
 pub mod driver;

@@ -19,6 +19,8 @@ pub struct Buffers<S: Space> {
     cell_start: Vec<u32>,
     cell_sorted: Vec<u32>,
     cell_index: Vec<u32>,
+    neighbours: Vec<u32>,
+    neighbour_counts: Vec<u32>,
 }
 
 impl<S: Space> Buffers<S> {
@@ -50,7 +52,17 @@ impl<S: Space> Buffers<S> {
             cell_start: vec![0; cells],
             cell_sorted: vec![0; cap],
             cell_index: vec![0; cap],
+            neighbours: Vec::new(),
+            neighbour_counts: Vec::new(),
         }
+    }
+
+    /// Adds Verlet-list buffers of `width` entries per particle slot.
+    pub fn with_lists(mut self, width: usize) -> Self {
+        let cap = self.x.len();
+        self.neighbours = vec![0; cap * width];
+        self.neighbour_counts = vec![0; cap];
+        self
     }
 
     pub fn storage(&mut self) -> Storage<'_, S> {
@@ -68,6 +80,8 @@ impl<S: Space> Buffers<S> {
             cell_start: &mut self.cell_start,
             cell_sorted: &mut self.cell_sorted,
             cell_index: &mut self.cell_index,
+            neighbours: &mut self.neighbours,
+            neighbour_counts: &mut self.neighbour_counts,
         }
     }
 }

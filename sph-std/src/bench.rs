@@ -1,0 +1,353 @@
+//! Standard benchmark scenes for `sph bench`.
+//!
+//! - `box2d`: a 2D periodic box of weakly compressible fluid in f64: a square
+//!   lattice perturbed by up to 0.05 dx with a small random velocity field
+//!   (fixed seed); summation density, linear EOS, pressure gradient and
+//!   Morris viscosity; cubic spline with `h = 1.3 dx` (support 2.6 dx, about
+//!   21 neighbours per particle including itself).
+//! - `box3d`: the same in 3D (cubic, `h = 1.2 dx`, about 57 neighbours).
+//! - `couette`: the Couette validation scene (walls by ghosts).
+//!
+//! The box is timed after an untimed warm-up that disorders the lattice: on a
+//! fresh lattice the branch predictor learns the neighbour pattern and
+//! flatters branchy code.
+
+use std::time::Instant;
+
+use serde::Serialize;
+use sph_core::exec::{Executor, Serial};
+use sph_core::kernel::CubicSpline;
+use sph_core::math::Libm;
+use sph_core::prelude::{
+    Domain, Eos, MorrisViscosity, Params, PressureGradient, Side, Solver, Space, SummationDensity,
+    Term, Vector, VectorOps, Wall, D2, D3,
+};
+
+use crate::driver::{Buffers, Rayon};
+use crate::error::{Error, Result};
+
+/// Which scene to time.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Scene {
+    /// 2D periodic box.
+    Box2d,
+    /// 3D periodic box.
+    Box3d,
+    /// Couette channel with mirrored walls.
+    Couette,
+}
+
+impl Scene {
+    /// Parses a scene name.
+    ///
+    /// # Errors
+    /// A message listing the accepted names.
+    pub fn parse(s: &str) -> std::result::Result<Self, String> {
+        match s {
+            "box2d" => Ok(Scene::Box2d),
+            "box3d" => Ok(Scene::Box3d),
+            "couette" => Ok(Scene::Couette),
+            _ => Err("expected one of box2d, box3d, couette".into()),
+        }
+    }
+
+    /// The scene's name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Scene::Box2d => "box2d",
+            Scene::Box3d => "box3d",
+            Scene::Couette => "couette",
+        }
+    }
+}
+
+/// What to run.
+#[derive(Clone, Copy, Debug)]
+pub struct BenchConfig {
+    /// Scene.
+    pub scene: Scene,
+    /// Approximate number of fluid particles (rounded to a lattice).
+    pub n: usize,
+    /// Threads (1 = serial executor, no rayon).
+    pub threads: usize,
+    /// Timed steps.
+    pub steps: usize,
+    /// Untimed warm-up steps.
+    pub warmup: usize,
+    /// Reorder particles by cell every this many cell-list builds (0: never).
+    pub reorder_every: u32,
+    /// Use Verlet neighbour lists (else scan cells in every pass).
+    pub lists: bool,
+    /// Verlet skin as a fraction of the support radius.
+    pub skin: f64,
+}
+
+/// What a benchmark measured.
+#[derive(Clone, Debug, Serialize)]
+pub struct BenchReport {
+    /// Scene name.
+    pub scene: &'static str,
+    /// Fluid particles.
+    pub n: usize,
+    /// Threads.
+    pub threads: usize,
+    /// Timed steps.
+    pub steps: usize,
+    /// Mean neighbours per fluid particle (itself included), counted after the warm-up.
+    pub neighbours_mean: f64,
+    /// Wall seconds of the timed steps.
+    pub seconds: f64,
+    /// Particle-steps per second.
+    pub particle_steps_per_s: f64,
+    /// Pair interactions per second (each pass counts its pairs).
+    pub pairs_per_s: f64,
+    /// Nanoseconds per pair interaction.
+    pub ns_per_pair: f64,
+    /// Bytes of solver storage per particle slot.
+    pub bytes_per_particle: f64,
+    /// Neighbour passes per step (density and forces).
+    pub passes_per_step: usize,
+}
+
+/// Deterministic xorshift generator, uniform in `[-1, 1)`.
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> f64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+    }
+}
+
+type Forces = (PressureGradient, MorrisViscosity<f64>);
+
+/// Runs a benchmark.
+///
+/// # Errors
+/// [`Error::Config`] for a bad size or thread count; core errors if the scene diverges.
+pub fn run(cfg: &BenchConfig) -> Result<BenchReport> {
+    if cfg.n < 16 || cfg.n > 100_000_000 {
+        return Err(Error::config(
+            "n",
+            cfg.n,
+            "must be between 16 and 1e8 particles",
+        ));
+    }
+    if cfg.steps == 0 {
+        return Err(Error::config("steps", cfg.steps, "must be at least 1"));
+    }
+    if cfg.threads == 1 {
+        return dispatch(cfg, &Serial);
+    }
+    let threads = if cfg.threads == 0 {
+        std::thread::available_parallelism()
+            .map(|n| n.get())
+            .unwrap_or(1)
+    } else {
+        cfg.threads
+    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| {
+            Error::config(
+                "threads",
+                threads,
+                format!("cannot start the thread pool: {e}"),
+            )
+        })?;
+    let min_chunk = (cfg.n / (8 * threads)).max(256);
+    let mut report = pool.install(|| dispatch(cfg, &Rayon { min_chunk }))?;
+    report.threads = threads;
+    Ok(report)
+}
+
+fn dispatch<E: Executor>(cfg: &BenchConfig, exec: &E) -> Result<BenchReport> {
+    match cfg.scene {
+        Scene::Box2d => periodic_box::<D2<f64>, E>(cfg, exec, 1.3),
+        Scene::Box3d => periodic_box::<D3<f64>, E>(cfg, exec, 1.2),
+        Scene::Couette => couette(cfg, exec),
+    }
+}
+
+/// Mean neighbours (itself included) of the first `n` particles of `all`
+/// (fluid first, then ghosts), counted once over a fresh cell list.
+fn mean_neighbours<S: Space>(
+    all: &[S::Vector],
+    n: usize,
+    domain: &Domain<S>,
+    radius: S::Real,
+) -> Result<f64> {
+    let grid = sph_core::neighbour::Grid::new(domain, radius)?;
+    let mut start = vec![0u32; grid.cell_count() + 1];
+    let mut sorted = vec![0u32; all.len()];
+    let mut cell = vec![0u32; all.len()];
+    let mut list = sph_core::neighbour::CellList::new(&mut start, &mut sorted, &mut cell);
+    list.build(&grid, all)?;
+    let view = list.view();
+    let mut pairs = 0usize;
+    for i in 0..n {
+        view.for_each_neighbour(&grid, all, i, |_, _, _| pairs += 1);
+    }
+    Ok(pairs as f64 / n.max(1) as f64)
+}
+
+fn timed<S, E, D, T>(
+    cfg: &BenchConfig,
+    exec: &E,
+    solver: &mut Solver<'_, S, CubicSpline, Libm, D, T>,
+    domain: &Domain<S>,
+    bytes_per_particle: f64,
+) -> Result<BenchReport>
+where
+    S: Space<Real = f64>,
+    E: Executor,
+    D: Term<S>,
+    T: Term<S>,
+    Libm: sph_core::math::Math<S::Real>,
+{
+    let dt = 0.5 * solver.limits().min();
+    for _ in 0..cfg.warmup {
+        solver.step_with(exec, dt)?;
+    }
+    // Between list rebuilds positions may lie just outside a periodic side: wrap them.
+    let mut all: Vec<S::Vector> = solver
+        .positions()
+        .iter()
+        .map(|x| domain.wrap::<Libm>(*x))
+        .collect();
+    let n = all.len();
+    all.extend_from_slice(solver.ghost_positions());
+    let neighbours_mean = mean_neighbours::<S>(&all, n, domain, solver.kernel().radius())?;
+    let start = Instant::now();
+    for _ in 0..cfg.steps {
+        solver.step_with(exec, dt)?;
+    }
+    let seconds = start.elapsed().as_secs_f64();
+    let passes = usize::from(!D::EMPTY) + usize::from(!T::EMPTY);
+    let particle_steps = (n * cfg.steps) as f64;
+    let pairs = particle_steps * neighbours_mean * passes as f64;
+    Ok(BenchReport {
+        scene: cfg.scene.name(),
+        n,
+        threads: 1,
+        steps: cfg.steps,
+        neighbours_mean,
+        seconds,
+        particle_steps_per_s: particle_steps / seconds,
+        pairs_per_s: pairs / seconds,
+        ns_per_pair: seconds * 1e9 / pairs,
+        bytes_per_particle,
+        passes_per_step: passes,
+    })
+}
+
+fn periodic_box<S, E>(cfg: &BenchConfig, exec: &E, beta: f64) -> Result<BenchReport>
+where
+    S: Space<Real = f64>,
+    E: Executor,
+    Libm: sph_core::math::Math<S::Real>,
+{
+    let d = S::DIM;
+    let side = (cfg.n as f64).powf(1.0 / d as f64).round().max(4.0) as usize;
+    let n = side.pow(d as u32);
+    let dx = 1.0 / side as f64;
+    let h = beta * dx;
+    let mut domain = Domain::<S>::new(S::Global::zero(), S::Vector::splat(1.0))?;
+    for a in 0..d {
+        domain = domain.with_periodic(a)?;
+    }
+    let cells = Solver::<S, CubicSpline, Libm, SummationDensity, Forces>::cells_needed(&domain, h)?;
+    let mut b = Buffers::<S>::new(n, cells);
+    if cfg.lists {
+        b = b.with_lists(crate::driver::list_width(d, 2.0, beta, cfg.skin));
+    }
+    let mut rng = Rng(0x5eed_1234_abcd_0001);
+    let (c0, rho0) = (10.0, 1.0);
+    for k in 0..n {
+        let mut rest = k;
+        let mut x = S::Vector::zero();
+        let mut v = S::Vector::zero();
+        for a in 0..d {
+            let i = rest % side;
+            rest /= side;
+            x[a] = ((i as f64 + 0.5) + 0.05 * rng.next()) * dx;
+            v[a] = 0.05 * c0 * rng.next();
+        }
+        b.x[k] = x;
+        b.v[k] = v;
+        b.m[k] = rho0 * dx.powi(d as i32);
+        b.rho[k] = rho0;
+    }
+    let bytes = b.bytes() as f64 / n as f64;
+    let params = Params::new(h, Eos::Linear { rho0, c0, p0: 0.0 })
+        .with_reorder_every(cfg.reorder_every)
+        .with_skin(cfg.skin);
+    let forces = (PressureGradient, MorrisViscosity { mu: 1e-3 });
+    let mut solver = Solver::<S, CubicSpline, Libm, _, _>::new_with(
+        exec,
+        params,
+        domain,
+        b.storage(),
+        n,
+        SummationDensity,
+        forces,
+    )?;
+    timed(cfg, exec, &mut solver, &domain, bytes)
+}
+
+fn couette<E: Executor>(cfg: &BenchConfig, exec: &E) -> Result<BenchReport> {
+    // Keep the Couette aspect ratio of the validation case: a strip 6 dx wide per 40 across.
+    let across = ((cfg.n as f64 / 0.15).sqrt().round() as usize).max(8);
+    let nx = (across * 6).div_ceil(40).max(6);
+    let n = across * nx;
+    let (gap, u, nu, rho0) = (1e-3, 1.25e-5, 1e-6, 1e3);
+    let dx = gap / across as f64;
+    let h = 1.3 * dx;
+    let domain = Domain::<D2<f64>>::new(
+        Vector::new([0.0, -0.5 * gap]),
+        Vector::new([nx as f64 * dx, gap]),
+    )?
+    .with_periodic(0)?
+    .with_wall(1, Side::Lower, Wall::no_slip())?
+    .with_wall(1, Side::Upper, Wall::moving(Vector::new([u, 0.0])))?;
+    let cells =
+        Solver::<D2<f64>, CubicSpline, Libm, SummationDensity, Forces>::cells_needed(&domain, h)?;
+    let cap = n + 8 * nx;
+    let mut b = Buffers::<D2<f64>>::new(cap, cells);
+    if cfg.lists {
+        b = b.with_lists(crate::driver::list_width(2, 2.0, 1.3, cfg.skin));
+    }
+    for j in 0..across {
+        for i in 0..nx {
+            b.x[j * nx + i] = Vector::new([(i as f64 + 0.5) * dx, (j as f64 + 0.5) * dx]);
+            b.m[j * nx + i] = 1.0;
+        }
+    }
+    let bytes = b.bytes() as f64 / cap as f64;
+    let params = Params::new(
+        h,
+        Eos::Linear {
+            rho0,
+            c0: 10.0 * u,
+            p0: 0.0,
+        },
+    )
+    .with_reorder_every(cfg.reorder_every)
+    .with_skin(cfg.skin);
+    let forces = (PressureGradient, MorrisViscosity { mu: nu * rho0 });
+    let mut solver = Solver::<D2<f64>, CubicSpline, Libm, _, _>::new_with(
+        exec,
+        params,
+        domain,
+        b.storage(),
+        n,
+        SummationDensity,
+        forces,
+    )?;
+    solver.calibrate_mass_with(exec, rho0)?;
+    timed(cfg, exec, &mut solver, &domain, bytes)
+}
