@@ -83,13 +83,28 @@ struct BenchArgs {
         hide_default_value = true
     )]
     skin: f64,
+    /// Start from a random particle order (what cell reordering is for).
+    #[arg(long)]
+    shuffle: bool,
+    /// Time N = 1e3, 1e4, 1e5, 1e6 (or the sizes of --sizes) and fit the slope of time per step.
+    #[arg(long)]
+    sweep: bool,
+    /// Sizes for --sweep, comma separated.
+    #[arg(
+        long,
+        value_name = "N,..",
+        value_delimiter = ',',
+        default_value = "1000,10000,100000,1000000",
+        hide_default_value = true
+    )]
+    sizes: Vec<usize>,
     /// Print one JSON object as the last line.
     #[arg(long)]
     json: bool,
 }
 
 fn run_bench(args: &BenchArgs) -> Result<()> {
-    let report = bench::run(&bench::BenchConfig {
+    let config = bench::BenchConfig {
         scene: args.scene,
         n: args.n,
         threads: args.threads,
@@ -98,7 +113,37 @@ fn run_bench(args: &BenchArgs) -> Result<()> {
         reorder_every: args.reorder_every,
         lists: !args.no_lists,
         skin: args.skin,
-    })?;
+        shuffle: args.shuffle,
+    };
+    if args.sweep {
+        let (rows, slope) = bench::sweep(&config, &args.sizes)?;
+        println!(
+            "{} scene, {} thread(s): time per step against N",
+            args.scene.name(),
+            rows[0].report.threads
+        );
+        println!(
+            "{:>10}  {:>8}  {:>14}  {:>14}  {:>8}",
+            "N", "steps", "s / step", "p-steps / s", "B / p"
+        );
+        for r in &rows {
+            println!(
+                "{:>10}  {:>8}  {:>14.4e}  {:>14.4e}  {:>8.0}",
+                r.report.n,
+                r.report.steps,
+                r.seconds_per_step,
+                r.report.particle_steps_per_s,
+                r.report.bytes_per_particle
+            );
+        }
+        println!("log-log slope of time per step against N: {slope:.3}");
+        if args.json {
+            let line = serde_json::json!({ "rows": rows, "slope": slope });
+            println!("{line}");
+        }
+        return Ok(());
+    }
+    let report = bench::run(&config)?;
     println!(
         "{} scene: {} particles, {} thread(s), {} steps in {:.3} s",
         report.scene, report.n, report.threads, report.steps, report.seconds

@@ -81,6 +81,9 @@ pub struct BenchConfig {
     pub lists: bool,
     /// Verlet skin as a fraction of the support radius.
     pub skin: f64,
+    /// Start from a random particle order instead of the lattice's row order
+    /// (the case cell reordering is for).
+    pub shuffle: bool,
 }
 
 /// What a benchmark measured.
@@ -121,8 +124,6 @@ impl Rng {
         (self.0 >> 11) as f64 / (1u64 << 52) as f64 - 1.0
     }
 }
-
-type Forces = (PressureGradient, MorrisViscosity<f64>);
 
 /// Runs a benchmark.
 ///
@@ -245,28 +246,92 @@ where
     })
 }
 
-fn periodic_box<S, E>(cfg: &BenchConfig, exec: &E, beta: f64) -> Result<BenchReport>
+/// A box of weakly compressible fluid ready to hand to a solver: the
+/// standard benchmark scene (see the module docs), periodic along every axis,
+/// or with no-slip walls across the second axis (the upper one sliding) when
+/// `walls` is set.
+#[derive(Debug)]
+pub struct BoxScene<S: Space> {
+    /// The domain.
+    pub domain: Domain<S>,
+    /// Buffers holding the fluid particles (and room for ghosts with walls).
+    pub buffers: Buffers<S>,
+    /// Fluid particles.
+    pub n: usize,
+    /// Smoothing length.
+    pub h: f64,
+    /// Parameters (linear EOS with c0 = 10, background pressure with walls,
+    /// skin and reordering as asked).
+    pub params: Params<f64>,
+}
+
+/// Options of [`box_scene`].
+#[derive(Clone, Copy, Debug)]
+pub struct BoxOptions {
+    /// `h / dx`.
+    pub beta: f64,
+    /// Verlet lists with this skin, or `None` to scan cells.
+    pub skin: Option<f64>,
+    /// Reorder particles by cell every this many builds.
+    pub reorder_every: u32,
+    /// Walls across the second axis instead of periodicity.
+    pub walls: bool,
+    /// Random initial particle order.
+    pub shuffle: bool,
+}
+
+/// The forces of the benchmark scenes: pressure and Morris viscosity.
+pub type BoxForces = (PressureGradient, MorrisViscosity<f64>);
+
+/// Builds the benchmark box with about `n` particles (rounded to a lattice).
+///
+/// # Errors
+/// Core errors for an impossible size.
+pub fn box_scene<S>(n: usize, options: BoxOptions) -> Result<BoxScene<S>>
 where
     S: Space<Real = f64>,
-    E: Executor,
     Libm: sph_core::math::Math<S::Real>,
 {
     let d = S::DIM;
-    let side = (cfg.n as f64).powf(1.0 / d as f64).round().max(4.0) as usize;
+    let side = (n as f64).powf(1.0 / d as f64).round().max(4.0) as usize;
     let n = side.pow(d as u32);
     let dx = 1.0 / side as f64;
-    let h = beta * dx;
+    let h = options.beta * dx;
     let mut domain = Domain::<S>::new(S::Global::zero(), S::Vector::splat(1.0))?;
     for a in 0..d {
-        domain = domain.with_periodic(a)?;
+        if options.walls && a == 1 {
+            let mut u = S::Vector::zero();
+            u[0] = 0.1;
+            domain = domain
+                .with_wall(a, Side::Lower, Wall::no_slip())?
+                .with_wall(a, Side::Upper, Wall::moving(u))?;
+        } else {
+            domain = domain.with_periodic(a)?;
+        }
     }
-    let cells = Solver::<S, CubicSpline, Libm, SummationDensity, Forces>::cells_needed(&domain, h)?;
-    let mut b = Buffers::<S>::new(n, cells);
-    if cfg.lists {
-        b = b.with_lists(crate::driver::list_width(d, 2.0, beta, cfg.skin));
+    let cells =
+        Solver::<S, CubicSpline, Libm, SummationDensity, BoxForces>::cells_needed(&domain, h)?;
+    let skin = options.skin.unwrap_or(0.0);
+    let spare = if options.walls {
+        2 * n / side * ((2.0 * options.beta * (1.0 + skin)).ceil() as usize + 1)
+    } else {
+        0
+    };
+    let mut b = Buffers::<S>::new(n + spare, cells);
+    if let Some(skin) = options.skin {
+        b = b.with_lists(crate::driver::list_width(d, 2.0, options.beta, skin));
     }
     let mut rng = Rng(0x5eed_1234_abcd_0001);
     let (c0, rho0) = (10.0, 1.0);
+    // Mirrored walls hold particles back by pressure alone: where a random
+    // velocity field rarefies the fluid (P < 0) a particle's own ghost pulls it
+    // through the wall (physics.md 3.5, 8.6). With walls the field is gentler
+    // and a background pressure keeps P positive.
+    let (amplitude, p0) = if options.walls {
+        (0.02 * c0, 0.1 * rho0 * c0 * c0)
+    } else {
+        (0.05 * c0, 0.0)
+    };
     for k in 0..n {
         let mut rest = k;
         let mut x = S::Vector::zero();
@@ -275,28 +340,63 @@ where
             let i = rest % side;
             rest /= side;
             x[a] = ((i as f64 + 0.5) + 0.05 * rng.next()) * dx;
-            v[a] = 0.05 * c0 * rng.next();
+            v[a] = amplitude * rng.next();
         }
         b.x[k] = x;
         b.v[k] = v;
         b.m[k] = rho0 * dx.powi(d as i32);
         b.rho[k] = rho0;
     }
-    let bytes = b.bytes() as f64 / n as f64;
-    let params = Params::new(h, Eos::Linear { rho0, c0, p0: 0.0 })
-        .with_reorder_every(cfg.reorder_every)
-        .with_skin(cfg.skin);
-    let forces = (PressureGradient, MorrisViscosity { mu: 1e-3 });
+    if options.shuffle {
+        // Fisher-Yates with the same generator: a fixed random order.
+        for k in (1..n).rev() {
+            let r = ((rng.next() + 1.0) * 0.5 * (k + 1) as f64) as usize % (k + 1);
+            b.x.swap(k, r);
+            b.v.swap(k, r);
+        }
+    }
+    let params = Params::new(h, Eos::Linear { rho0, c0, p0 })
+        .with_reorder_every(options.reorder_every)
+        .with_skin(skin);
+    Ok(BoxScene {
+        domain,
+        buffers: b,
+        n,
+        h,
+        params,
+    })
+}
+
+/// The forces of [`box_scene`].
+pub fn box_forces() -> BoxForces {
+    (PressureGradient, MorrisViscosity { mu: 1e-3 })
+}
+
+fn periodic_box<S, E>(cfg: &BenchConfig, exec: &E, beta: f64) -> Result<BenchReport>
+where
+    S: Space<Real = f64>,
+    E: Executor,
+    Libm: sph_core::math::Math<S::Real>,
+{
+    let options = BoxOptions {
+        beta,
+        skin: cfg.lists.then_some(cfg.skin),
+        reorder_every: cfg.reorder_every,
+        walls: false,
+        shuffle: cfg.shuffle,
+    };
+    let mut scene = box_scene::<S>(cfg.n, options)?;
+    let bytes = scene.buffers.bytes() as f64 / scene.n as f64;
     let mut solver = Solver::<S, CubicSpline, Libm, _, _>::new_with(
         exec,
-        params,
-        domain,
-        b.storage(),
-        n,
+        scene.params,
+        scene.domain,
+        scene.buffers.storage(),
+        scene.n,
         SummationDensity,
-        forces,
+        box_forces(),
     )?;
-    timed(cfg, exec, &mut solver, &domain, bytes)
+    timed(cfg, exec, &mut solver, &scene.domain, bytes)
 }
 
 fn couette<E: Executor>(cfg: &BenchConfig, exec: &E) -> Result<BenchReport> {
@@ -314,8 +414,9 @@ fn couette<E: Executor>(cfg: &BenchConfig, exec: &E) -> Result<BenchReport> {
     .with_periodic(0)?
     .with_wall(1, Side::Lower, Wall::no_slip())?
     .with_wall(1, Side::Upper, Wall::moving(Vector::new([u, 0.0])))?;
-    let cells =
-        Solver::<D2<f64>, CubicSpline, Libm, SummationDensity, Forces>::cells_needed(&domain, h)?;
+    let cells = Solver::<D2<f64>, CubicSpline, Libm, SummationDensity, BoxForces>::cells_needed(
+        &domain, h,
+    )?;
     let cap = n + 8 * nx;
     let mut b = Buffers::<D2<f64>>::new(cap, cells);
     if cfg.lists {
@@ -350,4 +451,54 @@ fn couette<E: Executor>(cfg: &BenchConfig, exec: &E) -> Result<BenchReport> {
     )?;
     solver.calibrate_mass_with(exec, rho0)?;
     timed(cfg, exec, &mut solver, &domain, bytes)
+}
+
+/// One row of a size sweep.
+#[derive(Clone, Debug, Serialize)]
+pub struct SweepRow {
+    /// The benchmark at this size.
+    pub report: BenchReport,
+    /// Wall seconds per step.
+    pub seconds_per_step: f64,
+}
+
+/// Times `base` at each size in `sizes` (timed steps chosen so each size takes
+/// a few seconds) and fits the log-log slope of time per step against N.
+///
+/// # Errors
+/// As [`run`].
+pub fn sweep(base: &BenchConfig, sizes: &[usize]) -> Result<(Vec<SweepRow>, f64)> {
+    let mut rows = Vec::with_capacity(sizes.len());
+    for &n in sizes {
+        let steps = (4.0e6 / n as f64).clamp(5.0, 2000.0) as usize;
+        let report = run(&BenchConfig { n, steps, ..*base })?;
+        let seconds_per_step = report.seconds / report.steps as f64;
+        rows.push(SweepRow {
+            report,
+            seconds_per_step,
+        });
+    }
+    Ok((
+        rows.clone(),
+        loglog_slope(
+            &rows
+                .iter()
+                .map(|r| (r.report.n as f64, r.seconds_per_step))
+                .collect::<Vec<_>>(),
+        ),
+    ))
+}
+
+/// Least-squares slope of `ln y` against `ln x`.
+pub fn loglog_slope(points: &[(f64, f64)]) -> f64 {
+    let n = points.len() as f64;
+    let (mut sx, mut sy, mut sxx, mut sxy) = (0.0, 0.0, 0.0, 0.0);
+    for &(x, y) in points {
+        let (lx, ly) = (x.ln(), y.ln());
+        sx += lx;
+        sy += ly;
+        sxx += lx * lx;
+        sxy += lx * ly;
+    }
+    (n * sxy - sx * sy) / (n * sxx - sx * sx)
 }

@@ -35,6 +35,9 @@ use crate::config::{
 use crate::driver::{Buffers, Rayon};
 use crate::error::{Error, Result};
 
+/// Verlet skin of the neighbour lists (fraction of the support radius).
+pub const SKIN: f64 = 0.1;
+
 /// Reports progress of a long run (implemented by a progress bar in the CLI).
 pub trait Progress: Sync {
     /// The run will take `total` steps.
@@ -82,8 +85,9 @@ impl Geometry {
         let n = cfg.particles_across;
         let dx = cfg.gap / n as f64;
         let h = cfg.beta * dx;
-        let radius = cfg.kernel.support() * h;
-        // Strictly wider than `strip_supports` radii, so rounding never breaks the 2R rule.
+        // The neighbour lists reach (1 + skin) R; the strip is strictly wider
+        // than `strip_supports` such radii, so the periodic-image rule holds.
+        let radius = cfg.kernel.support() * h * (1.0 + SKIN);
         let nx = (cfg.strip_supports * radius / dx).floor() as usize + 1;
         let c0 = cfg.sound_speed_factor * cfg.u_wall;
         let alpha = match cfg.viscosity {
@@ -353,10 +357,11 @@ where
         Wall::moving(Vector::new([f(cfg.u_wall), F::ZERO])),
     )?;
     let h = f(geo.h);
-    let radius_rows = (K::SUPPORT * cfg.beta).ceil() as usize + 1;
+    let radius_rows = (K::SUPPORT * cfg.beta * (1.0 + SKIN)).ceil() as usize + 1;
     let capacity = geo.n_fluid + 2 * nx * radius_rows;
     let cells = Solver::<D2<F>, K, M, D, T>::cells_needed(&domain, h)?;
-    let mut buffers = Buffers::<D2<F>>::new(capacity, cells);
+    let width = crate::driver::list_width(2, K::SUPPORT, cfg.beta, SKIN);
+    let mut buffers = Buffers::<D2<F>>::new(capacity, cells).with_lists(width);
     for j in 0..n {
         for i in 0..nx {
             let k = j * nx + i;
@@ -371,7 +376,9 @@ where
         c0: f(geo.c0),
         p0: F::ZERO,
     };
-    let params = Params::new(h, eos).with_eta2(f(cfg.eta2));
+    let params = Params::new(h, eos)
+        .with_eta2(f(cfg.eta2))
+        .with_skin(f(SKIN));
     let mut solver = Solver::<D2<F>, K, M, D, T>::new_with(
         exec,
         params,
