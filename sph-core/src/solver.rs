@@ -286,10 +286,11 @@ struct Pass<'s, S: Space, K: Kernel, M: Math<S::Real>> {
 impl<S: Space, K: Kernel, M: Math<S::Real>> Pass<'_, S, K, M> {
     /// Neighbour index and separation `(x_i - x_j) - shift` for a list entry.
     #[inline(always)]
-    fn separation(&self, xi: S::Vector, entry: u32) -> (usize, S::Vector) {
+    fn separation(&self, f: &Fields<'_, S>, xi: S::Vector, entry: u32) -> (usize, S::Vector) {
         let j = (entry & INDEX_MASK) as usize;
         let code = entry >> INDEX_BITS;
-        let mut r_ij = xi - self.fields.x[j];
+        // The one bounds check of the pair: the fields share this length.
+        let mut r_ij = xi - f.x[j];
         if code != 0 {
             // A periodic image (rare): (x_i - x_j) - shift, as in the cell scan.
             let signs = [S::Real::ZERO, S::Real::ONE, -S::Real::ONE, S::Real::ZERO];
@@ -313,7 +314,9 @@ impl<S: Space, K: Kernel, M: Math<S::Real>> Pass<'_, S, K, M> {
         i: usize,
         row: &mut [u32],
     ) -> (Acc<S>, usize) {
-        let f = &self.fields;
+        // Every field re-sliced to one length: with `j` checked against it once,
+        // the compiler drops the per-field bounds checks in the pair loop.
+        let f = self.fields.uniform();
         let d = Dest {
             i,
             v: f.v[i],
@@ -331,10 +334,10 @@ impl<S: Space, K: Kernel, M: Math<S::Real>> Pass<'_, S, K, M> {
         let radius2 = self.kernel.radius2();
         let mut inside = 0;
         for e in 0..row.len() {
-            let (j, r_ij) = self.separation(xi, row[e]);
+            let (j, r_ij) = self.separation(&f, xi, row[e]);
             let r2 = r_ij.norm2();
             if r2 < radius2 {
-                self.visit::<T, false>(terms, &d, &mut acc, j, r_ij, r2);
+                self.visit::<T, false>(&f, terms, &d, &mut acc, j, r_ij, r2);
                 row.swap(e, inside);
                 inside += 1;
             }
@@ -344,8 +347,10 @@ impl<S: Space, K: Kernel, M: Math<S::Real>> Pass<'_, S, K, M> {
 
     /// One pair: the shared pair quantities, then every term of the group.
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
     fn visit<T: Term<S>, const VISCOUS_ONLY: bool>(
         &self,
+        f: &Fields<'_, S>,
         terms: &T,
         d: &Dest<S>,
         acc: &mut Acc<S>,
@@ -353,7 +358,6 @@ impl<S: Space, K: Kernel, M: Math<S::Real>> Pass<'_, S, K, M> {
         r_ij: S::Vector,
         r2: S::Real,
     ) {
-        let f = &self.fields;
         let (w, fk) = if T::NEEDS_W && T::NEEDS_F {
             self.kernel.w_and_f(r2)
         } else if T::NEEDS_W {
@@ -383,7 +387,9 @@ impl<S: Space, K: Kernel, M: Math<S::Real>> Pass<'_, S, K, M> {
     /// parts when `VISCOUS_ONLY`).
     #[inline(always)]
     fn accumulate<T: Term<S>, const VISCOUS_ONLY: bool>(&self, terms: &T, i: usize) -> Acc<S> {
-        let f = &self.fields;
+        // Every field re-sliced to one length: with `j` checked against it once,
+        // the compiler drops the per-field bounds checks in the pair loop.
+        let f = self.fields.uniform();
         let d = Dest {
             i,
             v: f.v[i],
@@ -402,7 +408,7 @@ impl<S: Space, K: Kernel, M: Math<S::Real>> Pass<'_, S, K, M> {
         match self.neighbours {
             Neighbours::Cells(cells) => {
                 cells.for_each_neighbour(self.grid, f.x, i, |j, r_ij, r2| {
-                    self.visit::<T, VISCOUS_ONLY>(terms, &d, &mut acc, j, r_ij, r2);
+                    self.visit::<T, VISCOUS_ONLY>(&f, terms, &d, &mut acc, j, r_ij, r2);
                 })
             }
             Neighbours::Lists {
@@ -420,16 +426,24 @@ impl<S: Space, K: Kernel, M: Math<S::Real>> Pass<'_, S, K, M> {
                     // Positions have not moved since the density pass sorted these in.
                     let inside = ((word >> 16) as usize).min(used);
                     for &entry in &row[..inside] {
-                        let (j, r_ij) = self.separation(xi, entry);
-                        self.visit::<T, VISCOUS_ONLY>(terms, &d, &mut acc, j, r_ij, r_ij.norm2());
+                        let (j, r_ij) = self.separation(&f, xi, entry);
+                        self.visit::<T, VISCOUS_ONLY>(
+                            &f,
+                            terms,
+                            &d,
+                            &mut acc,
+                            j,
+                            r_ij,
+                            r_ij.norm2(),
+                        );
                     }
                 } else {
                     let radius2 = self.kernel.radius2();
                     for &entry in row {
-                        let (j, r_ij) = self.separation(xi, entry);
+                        let (j, r_ij) = self.separation(&f, xi, entry);
                         let r2 = r_ij.norm2();
                         if r2 < radius2 {
-                            self.visit::<T, VISCOUS_ONLY>(terms, &d, &mut acc, j, r_ij, r2);
+                            self.visit::<T, VISCOUS_ONLY>(&f, terms, &d, &mut acc, j, r_ij, r2);
                         }
                     }
                 }

@@ -35,6 +35,28 @@ pub struct Fields<'a, S: Space> {
     pub p: &'a [S::Real],
 }
 
+impl<'a, S: Space> Fields<'a, S> {
+    /// The same fields, each cut to the length of the shortest, so that one
+    /// index check covers all of them.
+    #[inline(always)]
+    pub fn uniform(&self) -> Self {
+        let n = self
+            .x
+            .len()
+            .min(self.v.len())
+            .min(self.m.len())
+            .min(self.rho.len())
+            .min(self.p.len());
+        Self {
+            x: &self.x[..n],
+            v: &self.v[..n],
+            m: &self.m[..n],
+            rho: &self.rho[..n],
+            p: &self.p[..n],
+        }
+    }
+}
+
 /// The destination particle's own values, read once per pass.
 #[derive(Clone, Copy, Debug)]
 pub struct Dest<S: Space> {
