@@ -8,7 +8,7 @@ use sph_std::config::{
     CouetteConfig, DensityMode, KernelName, MathBackend, Precision, ViscosityForm,
 };
 use sph_std::error::Result;
-use sph_std::{bench, couette, output, progress};
+use sph_std::{bench, couette, output, progress, studies};
 
 #[derive(Parser, Debug)]
 #[command(
@@ -35,6 +35,119 @@ enum Command {
     /// The periodic boxes are timed after an untimed warm-up that disorders
     /// the initial lattice. With --json the last line is one JSON object.
     Bench(BenchArgs),
+    /// Convergence of the Couette error in N and beta (the poster's "second order").
+    ///
+    /// Fixed-beta sweeps per kernel (local, fitted and Richardson orders, and
+    /// the extrapolated floor), beta sweeps at fixed N with two regularisers,
+    /// and a joint sweep where beta grows as sqrt(N). Writes convergence.csv,
+    /// orders.txt, convergence.png, richardson.png and beta.png.
+    Convergence(StudyArgs),
+    /// The speed/accuracy trade: Couette runs across kernel, precision, math
+    /// backend, beta, time-step factor and resolution (one-factor variations
+    /// around the default), each timed on one thread. Writes pareto.csv,
+    /// pareto.png and cheapest.txt (the cheapest run for 10 %, 1 % and 0.1 % of U).
+    Pareto(StudyArgs),
+}
+
+#[derive(Args, Debug)]
+struct StudyArgs {
+    /// Fewer resolutions (under two minutes on 2 cores).
+    #[arg(long)]
+    quick: bool,
+    /// Output directory [default: out/<command>].
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+    /// Worker threads per run; 0 = all cores [default: 0].
+    #[arg(long, value_name = "T", default_value_t = 0, hide_default_value = true)]
+    threads: usize,
+    /// No progress bar.
+    #[arg(long)]
+    quiet: bool,
+}
+
+impl StudyArgs {
+    fn out_dir(&self, command: &str) -> PathBuf {
+        self.out
+            .clone()
+            .unwrap_or_else(|| PathBuf::from("out").join(command))
+    }
+}
+
+fn run_pareto(args: &StudyArgs) -> Result<()> {
+    let dir = args.out_dir("pareto");
+    let created = output::prepare_dir(&dir)?;
+    let resolutions: &[usize] = if args.quick {
+        &[10, 20, 40]
+    } else {
+        &[10, 20, 40, 80, 160]
+    };
+    let configs = studies::pareto_configs(resolutions);
+    let bar = progress::Bar::new("pareto runs", args.quiet);
+    let rows = match studies::pareto(&configs, &bar) {
+        Ok(r) => r,
+        Err(e) => {
+            if created {
+                output::remove_if_empty(&dir);
+            }
+            return Err(e);
+        }
+    };
+    let written = studies::write_pareto(&rows, &dir)?;
+    println!(
+        "{:<12} {:>5} {:>4} {:>10} {:>4} {:>5} {:>11} {:>9} {:>12}  frontier",
+        "kernel", "beta", "prec", "math", "dt", "N", "Linf/U", "seconds", "p-steps/s"
+    );
+    for r in &rows {
+        println!(
+            "{:<12} {:>5} {:>4} {:>10} {:>4} {:>5} {:>11.3e} {:>9.3} {:>12.3e}  {}",
+            r.kernel.name(),
+            r.beta,
+            r.precision.name(),
+            r.math.name(),
+            r.dt_factor,
+            r.particles_across,
+            r.linf_error,
+            r.wall_seconds,
+            r.particle_steps_per_s,
+            if r.pareto { "*" } else { "" }
+        );
+    }
+    print!("{}", studies::cheapest_for(&rows, &[0.1, 0.01, 0.001]));
+    let names: Vec<String> = written
+        .iter()
+        .filter_map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
+        .collect();
+    println!("Wrote {} to {}", names.join(", "), dir.display());
+    Ok(())
+}
+
+fn run_convergence(args: &StudyArgs) -> Result<()> {
+    let dir = args.out_dir("convergence");
+    let created = output::prepare_dir(&dir)?;
+    let mut plan = if args.quick {
+        studies::ConvergencePlan::quick()
+    } else {
+        studies::ConvergencePlan::full()
+    };
+    plan.threads = args.threads;
+    let bar = progress::Bar::new("convergence runs", args.quiet);
+    let report = match studies::convergence(&plan, &bar) {
+        Ok(r) => r,
+        Err(e) => {
+            if created {
+                output::remove_if_empty(&dir);
+            }
+            return Err(e);
+        }
+    };
+    let written = studies::write_convergence(&report, &dir)?;
+    print!("{}", studies::orders_table(&report));
+    let names: Vec<String> = written
+        .iter()
+        .filter_map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
+        .collect();
+    println!("Wrote {} to {}", names.join(", "), dir.display());
+    Ok(())
 }
 
 #[derive(Args, Debug)]
@@ -222,7 +335,7 @@ struct CouetteArgs {
     /// End time in seconds [default: 1].
     #[arg(long, value_name = "S", allow_hyphen_values = true)]
     t_end: Option<f64>,
-    /// Time step as a fraction of the smallest stability limit, in (0, 1] [default: 0.7].
+    /// Time step as a fraction of the smallest stability limit, in (0, 0.9] [default: 0.7].
     #[arg(long, value_name = "F", allow_hyphen_values = true)]
     dt_factor: Option<f64>,
     /// Viscous regulariser eta^2 as a fraction of h^2, 0 to 1 [default: 0.01].
@@ -243,12 +356,18 @@ struct CouetteArgs {
     /// Sound speed as a multiple of the plate speed, at least 1 [default: 10].
     #[arg(long, value_name = "F", allow_hyphen_values = true)]
     sound_speed_factor: Option<f64>,
+    /// Background pressure as a fraction of rho0 c0^2, 0 to 1 [default: 0].
+    #[arg(long, value_name = "F", allow_hyphen_values = true)]
+    background_pressure: Option<f64>,
     /// Artificial-viscosity alpha; 0 matches nu [default: 0].
     #[arg(long, value_name = "A", allow_hyphen_values = true)]
     alpha: Option<f64>,
     /// Width of the periodic strip in kernel support radii, at least 2 [default: 2].
     #[arg(long, value_name = "W", allow_hyphen_values = true)]
     strip_supports: Option<f64>,
+    /// Move the whole scene by this many metres along x and y [default: 0].
+    #[arg(long, value_name = "M", allow_hyphen_values = true)]
+    shift: Option<f64>,
     /// Output times in seconds, comma separated [default: 0.0225,0.045,0.1125,0.225,1].
     #[arg(
         long,
@@ -295,8 +414,10 @@ impl CouetteArgs {
             rho0,
             u_wall,
             sound_speed_factor,
+            background_pressure,
             alpha,
             strip_supports,
+            shift,
             output_times
         );
         c.vtk |= self.vtk;
@@ -382,6 +503,8 @@ fn main() -> ExitCode {
     let result = match &cli.command {
         Command::Couette(args) => run_couette(args),
         Command::Bench(args) => run_bench(args),
+        Command::Convergence(args) => run_convergence(args),
+        Command::Pareto(args) => run_pareto(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -424,7 +547,9 @@ mod tests {
             ("--u-wall", d.u_wall.to_string()),
             ("--sound-speed-factor", d.sound_speed_factor.to_string()),
             ("--alpha", d.alpha.to_string()),
+            ("--background-pressure", d.background_pressure.to_string()),
             ("--strip-supports", d.strip_supports.to_string()),
+            ("--shift", d.shift.to_string()),
             ("--out", d.out.display().to_string()),
         ] {
             let at = help

@@ -150,10 +150,9 @@ mod neighbours {
 mod rates {
     use super::*;
 
-    /// One force pass (pressure + Morris viscosity) over every particle of a
-    /// disordered periodic box, reading a prepared state.
-    #[divan::bench(args = [10_000, 40_000])]
-    fn force_pass(bencher: Bencher, n: usize) {
+    /// A prepared disordered periodic box with the force group `T`; times one
+    /// force pass over every particle.
+    fn force_pass<T: Term<D2<f64>>>(bencher: Bencher, n: usize, forces: T) {
         let (domain, x, radius) = cloud(n);
         let h = radius / 2.0;
         let cells = Solver::<D2<f64>, CubicSpline, Libm, (), ()>::cells_needed(&domain, h).unwrap();
@@ -195,7 +194,6 @@ mod rates {
                 p0: 0.0,
             },
         );
-        let forces = (PressureGradient, MorrisViscosity { mu: 1e-3 });
         let s = Solver::<D2<f64>, CubicSpline, Libm, _, _>::new(
             params,
             domain,
@@ -212,5 +210,47 @@ mod rates {
             .bench_local(|| {
                 s.rates_range(0, &mut out, &mut out_rho).unwrap();
             });
+    }
+
+    /// Pressure gradient and Morris viscosity: the benchmark scene's physics.
+    #[divan::bench(args = [10_000, 40_000])]
+    fn pressure_morris(bencher: Bencher, n: usize) {
+        force_pass(bencher, n, (PressureGradient, MorrisViscosity { mu: 1e-3 }));
+    }
+
+    /// A scene that needs only pressure pays only for pressure.
+    #[divan::bench(args = [40_000])]
+    fn pressure_only(bencher: Bencher, n: usize) {
+        force_pass(bencher, n, (PressureGradient,));
+    }
+
+    /// Adding a body force and continuity costs what they compute.
+    #[divan::bench(args = [40_000])]
+    fn pressure_morris_body_continuity(bencher: Bencher, n: usize) {
+        force_pass(
+            bencher,
+            n,
+            (
+                Continuity,
+                PressureGradient,
+                MorrisViscosity { mu: 1e-3 },
+                BodyForce {
+                    g: V2::new([0.0, -9.81]),
+                },
+            ),
+        );
+    }
+
+    /// The run-time choice of viscous form (one predictable branch per pair).
+    #[divan::bench(args = [40_000])]
+    fn pressure_any_viscosity(bencher: Bencher, n: usize) {
+        force_pass(
+            bencher,
+            n,
+            (
+                PressureGradient,
+                AnyViscosity::Morris(MorrisViscosity { mu: 1e-3 }),
+            ),
+        );
     }
 }

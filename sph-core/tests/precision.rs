@@ -13,6 +13,20 @@ fn couette<F: Real>(n: usize, origin_x: f64) -> (Vec<f64>, Vec<f64>)
 where
     Libm: Math<F>,
 {
+    couette_quantized::<F>(n, origin_x, None)
+}
+
+/// As [`couette`]; with `Some(offset)` the initial positions are first rounded to
+/// the `f32` grid at `offset` metres, emulating a code that stores absolute
+/// `f32` coordinates there (only that storage rounding is emulated).
+fn couette_quantized<F: Real>(
+    n: usize,
+    origin_x: f64,
+    quantize_at: Option<f64>,
+) -> (Vec<f64>, Vec<f64>)
+where
+    Libm: Math<F>,
+{
     let nx = 6;
     let (gap, u, nu) = (1e-3, 1.25e-5, 1e-6);
     let dx = gap / n as f64;
@@ -33,9 +47,13 @@ where
         Wall::moving(Vector::new([F::from_f64(u), F::ZERO])),
     )
     .unwrap();
+    let round = |c: f64| match quantize_at {
+        Some(offset) => ((offset + c) as f32) as f64 - offset,
+        None => c,
+    };
     let x: Vec<Vector<F, 2>> = lattice_2d(nx, n, dx)
         .iter()
-        .map(|p| Vector::new([F::from_f64(p[0]), F::from_f64(p[1])]))
+        .map(|p| Vector::new([F::from_f64(round(p[0])), F::from_f64(round(p[1]))]))
         .collect();
     let v = vec![Vector::<F, 2>::zero(); x.len()];
     let cells =
@@ -94,6 +112,28 @@ fn single_precision_tracks_double_on_a_transient() {
     let (e64, e32) = (linf(&u64s, &y64, 0.1), linf(&u32s, &y32, 0.1));
     assert!(e64 < 0.02, "f64 error {e64}");
     assert!((e32 - e64).abs() < 1e-3, "f32 error {e32} vs f64 {e64}");
+}
+
+#[test]
+fn absolute_f32_coordinates_far_away_would_lose_the_accuracy() {
+    // Storing absolute f32 coordinates at distance X rounds every position to
+    // an ulp of X: a lattice distortion of eps = ulp(X)/dx, to which the
+    // viscous operator responds at first order (an error of order 0.02 eps on
+    // top of the baseline here). At 40 across: eps = 0.048 at 10 m (1e4 gap
+    // widths), 0.48 at 100 m. The error must grow with eps, and at eps ~ 1/2
+    // dwarf the baseline. Local coordinates (the core's design, next test)
+    // avoid it entirely.
+    let t = 0.1;
+    let (u, y) = couette::<f32>(40, 0.0);
+    let base = linf(&u, &y, t);
+    let (u10, y10) = couette_quantized::<f32>(40, 0.0, Some(10.0));
+    let (u100, y100) = couette_quantized::<f32>(40, 0.0, Some(100.0));
+    let (e10, e100) = (linf(&u10, &y10, t), linf(&u100, &y100, t));
+    assert!(
+        base < e10 && e10 < e100,
+        "error must grow with the rounding: {base:e}, {e10:e}, {e100:e}"
+    );
+    assert!(e100 > 10.0 * base, "half-dx rounding: {e100:e} vs {base:e}");
 }
 
 #[test]

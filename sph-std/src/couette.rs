@@ -97,8 +97,8 @@ impl Geometry {
             _ => 0.0,
         };
         Self {
-            y_lower: -0.5 * cfg.gap,
-            y_upper: 0.5 * cfg.gap,
+            y_lower: cfg.shift - 0.5 * cfg.gap,
+            y_upper: cfg.shift + 0.5 * cfg.gap,
             dx,
             h,
             nx,
@@ -346,7 +346,7 @@ where
     let (dx, nx) = (geo.dx, geo.nx);
     let f = F::from_f64;
     let domain = Domain::<D2<F>>::new(
-        Vector::new([0.0, geo.y_lower]),
+        Vector::new([cfg.shift, geo.y_lower]),
         Vector::new([f(nx as f64 * dx), f(cfg.gap)]),
     )?
     .with_periodic(0)?
@@ -371,10 +371,11 @@ where
         }
     }
     let storage_bytes = buffers.bytes();
+    let p0 = cfg.background_pressure * cfg.rho0 * geo.c0 * geo.c0;
     let eos = Eos::Linear {
         rho0: f(cfg.rho0),
         c0: f(geo.c0),
-        p0: F::ZERO,
+        p0: f(p0),
     };
     let params = Params::new(h, eos)
         .with_eta2(f(cfg.eta2))

@@ -23,5 +23,6 @@ pub mod error;
 pub mod output;
 pub mod plot;
 pub mod progress;
+pub mod studies;
 
 pub use sph_core;

@@ -27,8 +27,8 @@ fn plot_error(e: impl std::fmt::Display) -> Error {
     Error::config("plot", "profiles.png", format!("cannot draw the plot: {e}"))
 }
 
-/// Colours for successive series.
-pub const PALETTE: [RGBColor; 8] = [
+/// Colours for successive series (the last, black, is for references).
+pub const PALETTE: [RGBColor; 9] = [
     RGBColor(31, 119, 180),
     RGBColor(255, 127, 14),
     RGBColor(44, 160, 44),
@@ -37,7 +37,11 @@ pub const PALETTE: [RGBColor; 8] = [
     RGBColor(140, 86, 75),
     RGBColor(227, 119, 194),
     RGBColor(127, 127, 127),
+    RGBColor(0, 0, 0),
 ];
+
+/// Index of black in [`PALETTE`], for reference lines.
+pub const REFERENCE: usize = 8;
 
 /// Encodes an RGB buffer as PNG.
 ///
@@ -122,6 +126,153 @@ pub fn profiles_png(run: &CouetteRun) -> Result<Vec<u8>> {
             .border_style(BLACK)
             .draw()
             .map_err(plot_error)?;
+        root.present().map_err(plot_error)?;
+    }
+    encode_png(&buffer, w, h)
+}
+
+/// One series of a [`line_plot`].
+#[derive(Clone, Debug)]
+pub struct Series {
+    /// Legend label.
+    pub label: String,
+    /// Points (x, y); non-positive values are dropped on log axes.
+    pub points: Vec<(f64, f64)>,
+    /// Index into [`PALETTE`].
+    pub color: usize,
+    /// Draw as a line (else markers only).
+    pub line: bool,
+    /// Draw markers at the points.
+    pub markers: bool,
+}
+
+/// Axes of a [`line_plot`].
+#[derive(Clone, Debug)]
+pub struct Axes {
+    /// Title.
+    pub title: String,
+    /// x label.
+    pub x: String,
+    /// y label.
+    pub y: String,
+    /// Logarithmic x.
+    pub log_x: bool,
+    /// Logarithmic y.
+    pub log_y: bool,
+    /// Where the legend goes.
+    pub legend: SeriesLabelPosition,
+}
+
+fn range(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for v in values.filter(|v| v.is_finite() && (!log || *v > 0.0)) {
+        lo = lo.min(v);
+        hi = hi.max(v);
+    }
+    if !lo.is_finite() {
+        return (1.0, 10.0);
+    }
+    if log {
+        (lo / 1.5, hi * 1.5)
+    } else {
+        let pad = 0.05 * (hi - lo).max(1e-300);
+        (lo - pad, hi + pad)
+    }
+}
+
+/// A PNG line plot of several series (log or linear axes).
+///
+/// # Errors
+/// If drawing fails.
+pub fn line_plot(axes: &Axes, series: &[Series]) -> Result<Vec<u8>> {
+    ensure_font();
+    let (w, h) = (1000u32, 700u32);
+    let mut buffer = vec![255u8; (w * h * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut buffer, (w, h)).into_drawing_area();
+        root.fill(&WHITE).map_err(plot_error)?;
+        let keep = |p: &&(f64, f64)| {
+            (!axes.log_x || p.0 > 0.0)
+                && (!axes.log_y || p.1 > 0.0)
+                && p.0.is_finite()
+                && p.1.is_finite()
+        };
+        let (x0, x1) = range(
+            series
+                .iter()
+                .flat_map(|s| s.points.iter().filter(keep).map(|p| p.0)),
+            axes.log_x,
+        );
+        let (y0, y1) = range(
+            series
+                .iter()
+                .flat_map(|s| s.points.iter().filter(keep).map(|p| p.1)),
+            axes.log_y,
+        );
+        let mut builder = ChartBuilder::on(&root);
+        builder
+            .caption(&axes.title, ("sans-serif", 22))
+            .margin(15)
+            .x_label_area_size(50)
+            .y_label_area_size(80);
+        macro_rules! draw {
+            ($chart:expr) => {{
+                let mut chart = $chart;
+                chart
+                    .configure_mesh()
+                    .x_desc(axes.x.as_str())
+                    .y_desc(axes.y.as_str())
+                    .label_style(("sans-serif", 16))
+                    .light_line_style(RGBColor(235, 235, 235))
+                    .draw()
+                    .map_err(plot_error)?;
+                for s in series {
+                    let color = PALETTE[s.color % PALETTE.len()];
+                    let pts: Vec<(f64, f64)> = s.points.iter().filter(keep).copied().collect();
+                    if s.line {
+                        chart
+                            .draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))
+                            .map_err(plot_error)?
+                            .label(s.label.clone())
+                            .legend(move |(x, y)| {
+                                PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
+                            });
+                    }
+                    if s.markers {
+                        let drawn = chart
+                            .draw_series(pts.iter().map(|p| Circle::new(*p, 4, color.filled())))
+                            .map_err(plot_error)?;
+                        if !s.line {
+                            drawn
+                                .label(s.label.clone())
+                                .legend(move |(x, y)| Circle::new((x + 10, y), 4, color.filled()));
+                        }
+                    }
+                }
+                chart
+                    .configure_series_labels()
+                    .position(axes.legend.clone())
+                    .label_font(("sans-serif", 14))
+                    .background_style(WHITE.mix(0.85))
+                    .border_style(BLACK)
+                    .draw()
+                    .map_err(plot_error)?;
+            }};
+        }
+        match (axes.log_x, axes.log_y) {
+            (true, true) => draw!(builder
+                .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
+                .map_err(plot_error)?),
+            (true, false) => draw!(builder
+                .build_cartesian_2d((x0..x1).log_scale(), y0..y1)
+                .map_err(plot_error)?),
+            (false, true) => draw!(builder
+                .build_cartesian_2d(x0..x1, (y0..y1).log_scale())
+                .map_err(plot_error)?),
+            (false, false) => draw!(builder
+                .build_cartesian_2d(x0..x1, y0..y1)
+                .map_err(plot_error)?),
+        }
         root.present().map_err(plot_error)?;
     }
     encode_png(&buffer, w, h)
