@@ -10,7 +10,7 @@ type V2 = Vector<f64, 2>;
 
 /// Positions and velocities after 150 steps of the wall-bounded box (Verlet
 /// lists, reordering, ghost rebuilds) run through `exec`.
-fn run<E: Executor>(exec: &E, lists: bool) -> (Vec<V2>, Vec<V2>, u64) {
+fn run<E: Executor>(exec: &E, lists: bool) -> (Vec<V2>, Vec<V2>, u32) {
     let options = BoxOptions {
         beta: 1.3,
         skin: lists.then_some(0.1),

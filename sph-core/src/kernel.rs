@@ -294,10 +294,12 @@ impl<S: Space, K: Kernel, M: Math<S::Real>> SmoothingKernel<S, K, M> {
                 rule: "smoothing length must be positive and finite",
             });
         }
-        let d = S::DIM as i32;
         let sigma = K::sigma(S::DIM);
-        let cw = S::Real::from_f64(sigma / libm::pow(hf, d as f64));
-        let cf = S::Real::from_f64(sigma / libm::pow(hf, (d + 2) as f64));
+        // Integer powers by multiplication: exact enough, and no `pow` in the
+        // image of a small firmware.
+        let hd = (0..S::DIM).fold(1.0, |p, _| p * hf);
+        let cw = S::Real::from_f64(sigma / hd);
+        let cf = S::Real::from_f64(sigma / (hd * hf * hf));
         let radius = S::Real::from_f64(K::SUPPORT * hf);
         let ok = |x: S::Real| x.is_finite() && x > S::Real::ZERO;
         if !(ok(cw) && ok(cf) && ok(radius * radius)) {

@@ -476,7 +476,7 @@ pub struct Solver<'a, S: Space, K: Kernel, M: Math<S::Real>, D: Term<S>, T: Term
     amax2: S::Real,
     speed_limit2: S::Real,
     viscous_rate: f64,
-    builds: u64,
+    builds: u32,
     list_width: usize,
     list_radius: S::Real,
     travel: f64,
@@ -716,6 +716,13 @@ where
         if storage.neighbours.is_empty() && storage.neighbour_counts.is_empty() {
             return Ok(0);
         }
+        if !cfg!(feature = "neighbour-lists") {
+            return Err(Error::InvalidParameter {
+                name: "neighbours",
+                value: storage.neighbours.len() as f64,
+                rule: "neighbour lists need sph-core's `neighbour-lists` feature",
+            });
+        }
         let width = storage.neighbours.len() / cap.max(1);
         if width == 0 || width * cap != storage.neighbours.len() {
             return Err(Error::LengthMismatch {
@@ -846,7 +853,11 @@ where
     fn run_density<E: Executor, G: Term<S>>(&mut self, exec: &E, group: &G) -> Result<()> {
         let n = self.n;
         let total = n + self.n_ghost;
-        let width = self.list_width;
+        let width = if cfg!(feature = "neighbour-lists") {
+            self.list_width
+        } else {
+            0
+        };
         let Arrays {
             x,
             ve,
@@ -920,7 +931,7 @@ where
     /// only when the skin may have been used up; without, every time.
     fn update_neighbours<E: Executor>(&mut self, exec: &E) -> Result<()> {
         self.partitioned = false;
-        if self.list_width == 0 {
+        if !cfg!(feature = "neighbour-lists") || self.list_width == 0 {
             self.build_cells(self.kernel.radius())?;
             return Ok(());
         }
@@ -977,11 +988,11 @@ where
     /// Reorders (when due), generates ghosts within `radius` of the walls and
     /// sorts all particles into cells.
     fn build_cells(&mut self, radius: S::Real) -> Result<()> {
-        let every = u64::from(self.params.reorder_every);
+        let every = self.params.reorder_every;
         if every > 0 && self.builds > 0 && self.builds % every == 0 {
             self.reorder_by_cell();
         }
-        self.builds += 1;
+        self.builds = self.builds.wrapping_add(1);
         let n = self.n;
         self.n_ghost = boundary::generate(&self.domain, radius, self.a.x, n, self.a.ghosts)?;
         self.cells.build(&self.grid, &self.a.x[..n + self.n_ghost])
@@ -1199,7 +1210,7 @@ where
         let summation = !D::EMPTY;
         let domain = self.domain;
         // With Verlet lists, positions are wrapped at rebuilds only.
-        let wrap = self.list_width == 0;
+        let wrap = !cfg!(feature = "neighbour-lists") || self.list_width == 0;
         let Max2(drift2, _) = {
             let Arrays {
                 x,
@@ -1354,8 +1365,8 @@ where
         self.viscous_rate
     }
 
-    /// Cell-list builds so far (with neighbour lists: list rebuilds).
-    pub fn neighbour_builds(&self) -> u64 {
+    /// Cell-list builds so far (with neighbour lists: list rebuilds; wraps at 2^32).
+    pub fn neighbour_builds(&self) -> u32 {
         self.builds
     }
 
@@ -1524,7 +1535,7 @@ fn neighbour_source<'s>(
     width: usize,
     partitioned: bool,
 ) -> Neighbours<'s> {
-    if width > 0 {
+    if cfg!(feature = "neighbour-lists") && width > 0 {
         Neighbours::Lists {
             rows,
             counts,

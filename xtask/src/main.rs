@@ -6,6 +6,16 @@
 //!   features and with `fast-math` (installs missing targets with rustup).
 //! - `deps`: check that sph-core's normal dependencies are only libm,
 //!   heapless and micromath (and what those pull in).
+//! - `qemu`: build the firmware (`examples/firmware`, no allocator, no std),
+//!   run its reduced Couette case on an emulated Cortex-M4F (mps2-an386,
+//!   libm and micromath) and Cortex-M3 (lm3s6965evb), and check every output
+//!   line against the same code run on the host, bit for bit.
+//! - `size`: the firmware's flash and static RAM, with and without the
+//!   simulation and the error reporting, and bytes per particle.
+
+#[path = "../../examples/firmware/src/scene.rs"]
+#[allow(dead_code)]
+mod scene;
 
 use std::env;
 use std::path::{Path, PathBuf};
@@ -153,13 +163,275 @@ fn deps() -> Result<(), String> {
     }
 }
 
+/// A firmware build: target, QEMU CPU and machine, cargo feature arguments.
+struct Firmware {
+    target: &'static str,
+    cpu: &'static str,
+    machine: &'static str,
+    features: &'static [&'static str],
+    backend: &'static str,
+}
+
+const RUNS: &[Firmware] = &[
+    Firmware {
+        target: "thumbv7em-none-eabihf",
+        cpu: "cortex-m4",
+        machine: "mps2-an386",
+        features: &[],
+        backend: "libm",
+    },
+    Firmware {
+        target: "thumbv7em-none-eabihf",
+        cpu: "cortex-m4",
+        machine: "mps2-an386",
+        features: &["--features", "micromath"],
+        backend: "micromath",
+    },
+    Firmware {
+        target: "thumbv7m-none-eabi",
+        cpu: "cortex-m3",
+        machine: "lm3s6965evb",
+        features: &[],
+        backend: "libm",
+    },
+];
+
+fn firmware_dir() -> PathBuf {
+    root().join("examples").join("firmware")
+}
+
+/// Builds the firmware and returns the path of the ELF image.
+fn build_firmware(target: &str, features: &[&str]) -> Result<PathBuf, String> {
+    ensure_target(target)?;
+    let out = Command::new(env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
+        .current_dir(firmware_dir())
+        .args(["build", "--quiet", "--release", "--target", target])
+        .args(features)
+        .output()
+        .map_err(|e| format!("{target}: cannot run cargo: {e}"))?;
+    if !out.status.success() {
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        let first = stderr
+            .lines()
+            .find(|l| l.starts_with("error"))
+            .unwrap_or("build failed");
+        return Err(format!(
+            "firmware for {target} {features:?}: {first}\n{stderr}"
+        ));
+    }
+    Ok(firmware_dir()
+        .join("target")
+        .join(target)
+        .join("release")
+        .join("sph-firmware"))
+}
+
+fn qemu() -> Result<(), String> {
+    if Command::new("qemu-system-arm")
+        .arg("--version")
+        .output()
+        .is_err()
+    {
+        return fail(
+            "qemu-system-arm not found. On Debian bookworm: add bookworm-backports to the Suites of \
+             /etc/apt/sources.list.d/debian.sources, apt-get update, and apt-get install -y \
+             --no-install-recommends -t bookworm-backports qemu-system-arm"
+                .into(),
+        );
+    }
+    let mut host = std::collections::HashMap::new();
+    for backend in ["libm", "micromath"] {
+        let out = cargo()
+            .args([
+                "run",
+                "--quiet",
+                "--release",
+                "--example",
+                "firmware_host",
+                "--",
+                backend,
+            ])
+            .output()
+            .map_err(|e| format!("cannot run the host reference: {e}"))?;
+        if !out.status.success() {
+            return fail(format!(
+                "host reference ({backend}) failed: {}",
+                String::from_utf8_lossy(&out.stderr)
+            ));
+        }
+        let lines: Vec<String> = String::from_utf8_lossy(&out.stdout)
+            .lines()
+            .filter(|l| l.starts_with("t_ms="))
+            .map(String::from)
+            .collect();
+        host.insert(backend, lines);
+    }
+    for run in RUNS {
+        let elf = build_firmware(run.target, run.features)?;
+        let label = format!(
+            "{} on {} ({}), {}",
+            run.target, run.machine, run.cpu, run.backend
+        );
+        let out = Command::new("timeout")
+            .args([
+                "120",
+                "qemu-system-arm",
+                "-cpu",
+                run.cpu,
+                "-machine",
+                run.machine,
+                "-nographic",
+            ])
+            .args(["-semihosting-config", "enable=on,target=native", "-kernel"])
+            .arg(&elf)
+            .output()
+            .map_err(|e| format!("{label}: cannot run qemu: {e}"))?;
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        print!("{label}:\n{stdout}");
+        if !out.status.success() {
+            return fail(format!(
+                "{label}: firmware exited with {:?} (124: timeout)\n{}",
+                out.status.code(),
+                String::from_utf8_lossy(&out.stderr)
+            ));
+        }
+        let lines: Vec<&str> = stdout.lines().filter(|l| l.starts_with("t_ms=")).collect();
+        let reference = &host[run.backend];
+        if lines.len() != reference.len()
+            || lines.iter().zip(reference).any(|(a, b)| *a != b.as_str())
+        {
+            return fail(format!("{label}: output differs from the host's:\n  firmware: {lines:?}\n  host:     {reference:?}"));
+        }
+        println!("ok  {label}: every line equals the host's, bit for bit");
+    }
+    Ok(())
+}
+
+/// Sizes of the allocated sections of a 32-bit little-endian ELF file.
+fn sections(path: &Path) -> Result<Vec<(String, u64, u32)>, String> {
+    let data = std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    let u16_at = |o: usize| {
+        data.get(o..o + 2)
+            .map(|b| u16::from_le_bytes([b[0], b[1]]) as usize)
+    };
+    let u32_at = |o: usize| {
+        data.get(o..o + 4)
+            .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+    };
+    let bad = || format!("{}: not a 32-bit little-endian ELF file", path.display());
+    if data.get(0..6) != Some(&[0x7f, b'E', b'L', b'F', 1, 1][..]) {
+        return Err(bad());
+    }
+    let shoff = u32_at(0x20).ok_or_else(bad)? as usize;
+    let shentsize = u16_at(0x2e).ok_or_else(bad)?;
+    let shnum = u16_at(0x30).ok_or_else(bad)?;
+    let shstrndx = u16_at(0x32).ok_or_else(bad)?;
+    let header = |k: usize| shoff + k * shentsize;
+    let strtab = u32_at(header(shstrndx) + 0x10).ok_or_else(bad)? as usize;
+    let mut out = Vec::new();
+    for k in 0..shnum {
+        let h = header(k);
+        let name_off = u32_at(h).ok_or_else(bad)? as usize;
+        let sh_type = u32_at(h + 4).ok_or_else(bad)?;
+        let flags = u32_at(h + 8).ok_or_else(bad)?;
+        let size = u32_at(h + 0x14).ok_or_else(bad)?;
+        let name_bytes = data.get(strtab + name_off..).ok_or_else(bad)?;
+        let end = name_bytes.iter().position(|&b| b == 0).unwrap_or(0);
+        let name = String::from_utf8_lossy(&name_bytes[..end]).into_owned();
+        // SHF_ALLOC: the section occupies memory on the target.
+        if flags & 2 != 0 {
+            out.push((name, u64::from(size), sh_type));
+        }
+    }
+    Ok(out)
+}
+
+/// (flash, static RAM) of an image: flash holds code, constants and the
+/// initial values of .data; RAM holds .data, .bss and .uninit.
+fn flash_and_ram(path: &Path) -> Result<(u64, u64), String> {
+    let mut flash = 0;
+    let mut ram = 0;
+    for (name, size, sh_type) in sections(path)? {
+        let nobits = sh_type == 8;
+        if name == ".data" {
+            flash += size;
+            ram += size;
+        } else if nobits {
+            ram += size;
+        } else {
+            flash += size;
+        }
+    }
+    Ok((flash, ram))
+}
+
+fn size() -> Result<(), String> {
+    let target = "thumbv7em-none-eabihf";
+    let variants: &[(&str, &[&str])] = &[
+        ("bare firmware (no simulation)", &["--no-default-features"]),
+        (
+            "simulation, libm, silent",
+            &["--no-default-features", "--features", "sim"],
+        ),
+        ("simulation, libm, with error report", &[]),
+        (
+            "simulation, micromath, silent",
+            &["--no-default-features", "--features", "sim,micromath"],
+        ),
+        (
+            "simulation, micromath, with error report",
+            &["--features", "micromath"],
+        ),
+    ];
+    let mut rows = Vec::new();
+    for (label, features) in variants {
+        let elf = build_firmware(target, features)?;
+        let (flash, ram) = flash_and_ram(&elf)?;
+        rows.push((*label, flash, ram));
+    }
+    println!("Firmware for {target} (Cortex-M4F), opt-level s, LTO:");
+    println!(
+        "{:<42} {:>12} {:>16}",
+        "variant", "flash [B]", "static RAM [B]"
+    );
+    for (label, flash, ram) in &rows {
+        println!("{label:<42} {flash:>12} {ram:>16}");
+    }
+    let (base_flash, base_ram) = (rows[0].1, rows[0].2);
+    println!();
+    println!(
+        "The core's Couette step (libm):      {:>6} B flash, {:>6} B static RAM (simulation minus bare firmware)",
+        rows[1].1 - base_flash,
+        rows[1].2 - base_ram
+    );
+    println!(
+        "The core's Couette step (micromath): {:>6} B flash, {:>6} B static RAM",
+        rows[3].1 - base_flash,
+        rows[3].2 - base_ram
+    );
+    println!(
+        "Reporting (exact series, semihosting, integer formatting, panic messages): {} B flash",
+        rows[2].1 - rows[1].1
+    );
+    println!(
+        "Storage: {} B per particle slot (f32, 2D, no neighbour lists); the scene's store holds {} slots and {} cell starts in {} B",
+        sph_core::solver::bytes_per_particle::<sph_core::space::D2<f32>>(),
+        scene::SLOTS,
+        scene::CELLS,
+        std::mem::size_of::<scene::SceneStore>()
+    );
+    Ok(())
+}
+
 fn main() -> ExitCode {
     let task = env::args().nth(1).unwrap_or_default();
     let result = match task.as_str() {
         "cross" => cross(),
         "deps" => deps(),
+        "qemu" => qemu(),
+        "size" => size(),
         _ => {
-            eprintln!("usage: cargo xtask <cross|deps>");
+            eprintln!("usage: cargo xtask <cross|deps|qemu|size>");
             return ExitCode::from(2);
         }
     };
