@@ -75,7 +75,6 @@ impl StudyArgs {
 
 fn run_pareto(args: &StudyArgs) -> Result<()> {
     let dir = args.out_dir("pareto");
-    let created = output::prepare_dir(&dir)?;
     let resolutions: &[usize] = if args.quick {
         &[10, 20, 40]
     } else {
@@ -83,16 +82,11 @@ fn run_pareto(args: &StudyArgs) -> Result<()> {
     };
     let configs = studies::pareto_configs(resolutions);
     let bar = progress::Bar::new("pareto runs", args.quiet);
-    let rows = match studies::pareto(&configs, &bar) {
-        Ok(r) => r,
-        Err(e) => {
-            if created {
-                output::remove_if_empty(&dir);
-            }
-            return Err(e);
-        }
-    };
-    let written = studies::write_pareto(&rows, &dir)?;
+    let (rows, written) = output::in_dir(&dir, || {
+        let rows = studies::pareto(&configs, &bar)?;
+        let written = studies::write_pareto(&rows, &dir)?;
+        Ok((rows, written))
+    })?;
     println!(
         "{:<12} {:>5} {:>4} {:>10} {:>4} {:>5} {:>11} {:>9} {:>12}  frontier",
         "kernel", "beta", "prec", "math", "dt", "N", "Linf/U", "seconds", "p-steps/s"
@@ -123,7 +117,6 @@ fn run_pareto(args: &StudyArgs) -> Result<()> {
 
 fn run_convergence(args: &StudyArgs) -> Result<()> {
     let dir = args.out_dir("convergence");
-    let created = output::prepare_dir(&dir)?;
     let mut plan = if args.quick {
         studies::ConvergencePlan::quick()
     } else {
@@ -131,16 +124,11 @@ fn run_convergence(args: &StudyArgs) -> Result<()> {
     };
     plan.threads = args.threads;
     let bar = progress::Bar::new("convergence runs", args.quiet);
-    let report = match studies::convergence(&plan, &bar) {
-        Ok(r) => r,
-        Err(e) => {
-            if created {
-                output::remove_if_empty(&dir);
-            }
-            return Err(e);
-        }
-    };
-    let written = studies::write_convergence(&report, &dir)?;
+    let (report, written) = output::in_dir(&dir, || {
+        let report = studies::convergence(&plan, &bar)?;
+        let written = studies::write_convergence(&report, &dir)?;
+        Ok((report, written))
+    })?;
     print!("{}", studies::orders_table(&report));
     let names: Vec<String> = written
         .iter()
@@ -429,18 +417,12 @@ impl CouetteArgs {
 
 fn run_couette(args: &CouetteArgs) -> Result<()> {
     let config = args.config()?;
-    let created = output::prepare_dir(&config.out)?;
     let bar = progress::Bar::new("couette", config.quiet);
-    let run = match couette::run(&config, &bar) {
-        Ok(run) => run,
-        Err(e) => {
-            if created {
-                output::remove_if_empty(&config.out);
-            }
-            return Err(e);
-        }
-    };
-    let written = output::write_couette(&run, &config.out)?;
+    let (run, written) = output::in_dir(&config.out, || {
+        let run = couette::run(&config, &bar)?;
+        let written = output::write_couette(&run, &config.out)?;
+        Ok((run, written))
+    })?;
     if !config.quiet {
         let g = &run.geometry;
         let c = &run.config;

@@ -12,7 +12,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use sph::core::exec::Executor;
 use sph::core::prelude::*;
-use sph::std::bench::{box_forces, box_scene, BoxOptions};
+use sph::std::bench::{box_scene, BoxOptions};
 use sph::std::driver::Rayon;
 
 struct Counting;
@@ -48,16 +48,7 @@ fn allocations_while_stepping<E: Executor>(exec: &E) -> (usize, usize) {
         shuffle: true,
     };
     let mut scene = box_scene::<D2<f64>>(2304, options).unwrap();
-    let mut s = Solver::<D2<f64>, CubicSpline, Libm, _, _>::new_with(
-        exec,
-        scene.params,
-        scene.domain,
-        scene.buffers.storage(),
-        scene.n,
-        SummationDensity,
-        box_forces(),
-    )
-    .unwrap();
+    let mut s = scene.solver(exec).unwrap();
     let dt = 0.5 * s.limits().min();
     for _ in 0..50 {
         s.step_with(exec, dt).unwrap();

@@ -3,7 +3,7 @@
 
 use sph::core::exec::{Chunked, Executor};
 use sph::core::prelude::*;
-use sph::std::bench::{box_forces, box_scene, BoxOptions};
+use sph::std::bench::{box_scene, BoxOptions};
 use sph::std::driver::Rayon;
 
 type V2 = Vector<f64, 2>;
@@ -19,16 +19,7 @@ fn run<E: Executor>(exec: &E, lists: bool) -> (Vec<V2>, Vec<V2>, u32) {
         shuffle: true,
     };
     let mut scene = box_scene::<D2<f64>>(1600, options).unwrap();
-    let mut s = Solver::<D2<f64>, CubicSpline, Libm, _, _>::new_with(
-        exec,
-        scene.params,
-        scene.domain,
-        scene.buffers.storage(),
-        scene.n,
-        SummationDensity,
-        box_forces(),
-    )
-    .unwrap();
+    let mut s = scene.solver(exec).unwrap();
     let dt = 0.5 * s.limits().min();
     for _ in 0..150 {
         s.step_with(exec, dt).unwrap();

@@ -274,6 +274,26 @@ enum Neighbours<'s> {
     },
 }
 
+/// The destination's own values and an empty accumulator.
+#[inline(always)]
+fn start<S: Space>(f: &Fields<'_, S>, i: usize) -> (Dest<S>, Acc<S>) {
+    let d = Dest {
+        i,
+        v: f.v[i],
+        m: f.m[i],
+        rho: f.rho[i],
+        p: f.p[i],
+    };
+    (
+        d,
+        Acc {
+            rho: S::Real::ZERO,
+            drho: S::Real::ZERO,
+            dv: S::Vector::zero(),
+        },
+    )
+}
+
 /// What one pass reads, shared by every range.
 struct Pass<'s, S: Space, K: Kernel, M: Math<S::Real>> {
     kernel: &'s SmoothingKernel<S, K, M>,
@@ -317,18 +337,7 @@ impl<S: Space, K: Kernel, M: Math<S::Real>> Pass<'_, S, K, M> {
         // Every field re-sliced to one length: with `j` checked against it once,
         // the compiler drops the per-field bounds checks in the pair loop.
         let f = self.fields.uniform();
-        let d = Dest {
-            i,
-            v: f.v[i],
-            m: f.m[i],
-            rho: f.rho[i],
-            p: f.p[i],
-        };
-        let mut acc = Acc {
-            rho: S::Real::ZERO,
-            drho: S::Real::ZERO,
-            dv: S::Vector::zero(),
-        };
+        let (d, mut acc) = start::<S>(&f, i);
         terms.init(self.consts, &d, &mut acc);
         let xi = f.x[i];
         let radius2 = self.kernel.radius2();
@@ -390,18 +399,7 @@ impl<S: Space, K: Kernel, M: Math<S::Real>> Pass<'_, S, K, M> {
         // Every field re-sliced to one length: with `j` checked against it once,
         // the compiler drops the per-field bounds checks in the pair loop.
         let f = self.fields.uniform();
-        let d = Dest {
-            i,
-            v: f.v[i],
-            m: f.m[i],
-            rho: f.rho[i],
-            p: f.p[i],
-        };
-        let mut acc = Acc {
-            rho: S::Real::ZERO,
-            drho: S::Real::ZERO,
-            dv: S::Vector::zero(),
-        };
+        let (d, mut acc) = start::<S>(&f, i);
         if !VISCOUS_ONLY {
             terms.init(self.consts, &d, &mut acc);
         }

@@ -143,23 +143,8 @@ pub fn run(cfg: &BenchConfig) -> Result<BenchReport> {
     if cfg.threads == 1 {
         return dispatch(cfg, &Serial);
     }
-    let threads = if cfg.threads == 0 {
-        std::thread::available_parallelism()
-            .map(|n| n.get())
-            .unwrap_or(1)
-    } else {
-        cfg.threads
-    };
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .map_err(|e| {
-            Error::config(
-                "threads",
-                threads,
-                format!("cannot start the thread pool: {e}"),
-            )
-        })?;
+    let threads = crate::driver::resolve_threads(cfg.threads);
+    let pool = crate::driver::thread_pool(threads)?;
     let min_chunk = (cfg.n / (8 * threads)).max(256);
     let mut report = pool.install(|| dispatch(cfg, &Rayon { min_chunk }))?;
     report.threads = threads;
@@ -372,6 +357,31 @@ pub fn box_forces() -> BoxForces {
     (PressureGradient, MorrisViscosity { mu: 1e-3 })
 }
 
+/// The solver type of a [`BoxScene`].
+pub type BoxSolver<'a, S> = Solver<'a, S, CubicSpline, Libm, SummationDensity, BoxForces>;
+
+impl<S> BoxScene<S>
+where
+    S: Space<Real = f64>,
+    Libm: sph_core::math::Math<S::Real>,
+{
+    /// A solver over the scene's buffers, set up through `exec`.
+    ///
+    /// # Errors
+    /// Core errors from the set-up.
+    pub fn solver<E: Executor>(&mut self, exec: &E) -> Result<BoxSolver<'_, S>> {
+        Ok(Solver::new_with(
+            exec,
+            self.params,
+            self.domain,
+            self.buffers.storage(),
+            self.n,
+            SummationDensity,
+            box_forces(),
+        )?)
+    }
+}
+
 fn periodic_box<S, E>(cfg: &BenchConfig, exec: &E, beta: f64) -> Result<BenchReport>
 where
     S: Space<Real = f64>,
@@ -387,16 +397,9 @@ where
     };
     let mut scene = box_scene::<S>(cfg.n, options)?;
     let bytes = scene.buffers.bytes() as f64 / scene.n as f64;
-    let mut solver = Solver::<S, CubicSpline, Libm, _, _>::new_with(
-        exec,
-        scene.params,
-        scene.domain,
-        scene.buffers.storage(),
-        scene.n,
-        SummationDensity,
-        box_forces(),
-    )?;
-    timed(cfg, exec, &mut solver, &scene.domain, bytes)
+    let domain = scene.domain;
+    let mut solver = scene.solver(exec)?;
+    timed(cfg, exec, &mut solver, &domain, bytes)
 }
 
 fn couette<E: Executor>(cfg: &BenchConfig, exec: &E) -> Result<BenchReport> {

@@ -422,13 +422,7 @@ impl CouetteConfig {
 
     /// Worker threads to use (resolves 0 to the number of cores).
     pub fn resolved_threads(&self) -> usize {
-        if self.threads == 0 {
-            std::thread::available_parallelism()
-                .map(|n| n.get())
-                .unwrap_or(1)
-        } else {
-            self.threads
-        }
+        crate::driver::resolve_threads(self.threads)
     }
 }
 

@@ -238,16 +238,7 @@ pub fn run(cfg: &CouetteConfig, progress: &dyn Progress) -> Result<CouetteRun> {
     let mut out = if threads == 1 {
         dispatch(cfg, &Serial, progress)?
     } else {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .map_err(|e| {
-                Error::config(
-                    "threads",
-                    threads,
-                    format!("cannot start the thread pool: {e}"),
-                )
-            })?;
+        let pool = crate::driver::thread_pool(threads)?;
         // About four pieces per thread, but no piece under 64 particles.
         let min_chunk = (Geometry::of(cfg).n_fluid / (4 * threads)).max(64);
         pool.install(|| dispatch(cfg, &Rayon { min_chunk }, progress))?

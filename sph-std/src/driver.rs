@@ -7,6 +7,34 @@ use sph_core::real::Real;
 use sph_core::solver::Storage;
 use sph_core::space::{Space, VectorOps};
 
+/// Threads to use: `threads`, or every core for 0.
+pub fn resolve_threads(threads: usize) -> usize {
+    if threads == 0 {
+        std::thread::available_parallelism()
+            .map(|n| n.get())
+            .unwrap_or(1)
+    } else {
+        threads
+    }
+}
+
+/// A rayon pool of `threads` workers.
+///
+/// # Errors
+/// [`crate::error::Error::Config`] naming `threads` if the pool cannot start.
+pub fn thread_pool(threads: usize) -> crate::error::Result<rayon::ThreadPool> {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| {
+            crate::error::Error::config(
+                "threads",
+                threads,
+                format!("cannot start the thread pool: {e}"),
+            )
+        })
+}
+
 /// Runs a pass by recursive halving with `rayon::join` down to `min_chunk`
 /// particles; inside a `rayon::ThreadPool::install` it uses that pool.
 ///

@@ -51,6 +51,21 @@ pub fn remove_if_empty(dir: &Path) {
     let _ = fs::remove_dir(dir);
 }
 
+/// Prepares `dir` (see [`prepare_dir`]), runs `work`, and if `work` fails
+/// removes the directory again when this call created it: a failed run
+/// leaves nothing behind.
+///
+/// # Errors
+/// Those of [`prepare_dir`] and of `work`.
+pub fn in_dir<T>(dir: &Path, work: impl FnOnce() -> Result<T>) -> Result<T> {
+    let created = prepare_dir(dir)?;
+    work().inspect_err(|_| {
+        if created {
+            remove_if_empty(dir);
+        }
+    })
+}
+
 #[derive(Serialize)]
 struct ErrorEntry {
     t: f64,
