@@ -345,14 +345,13 @@ pub fn convergence(plan: &ConvergencePlan, progress: &dyn Progress) -> Result<Co
 
 /// `convergence.csv`.
 pub fn convergence_csv(report: &ConvergenceReport) -> String {
-    let mut s = String::from("sweep,kernel,beta,eta2,particles_across,dx,h,t,linf_error,l2_error,signed_error,wall_seconds,steps\n");
+    let mut s = String::from("sweep,kernel,beta,particles_across,dx,h,t,linf_error,l2_error,signed_error,wall_seconds,steps,eta2\n");
     for r in &report.rows {
         s.push_str(&format!(
-            "{},{},{},{},{},{:e},{:e},{},{:e},{:e},{:e},{:.4},{}\n",
+            "{},{},{},{},{:e},{:e},{},{:e},{:e},{:e},{:.4},{},{}\n",
             r.sweep,
             r.kernel,
             r.beta,
-            r.eta2,
             r.particles_across,
             r.dx,
             r.h,
@@ -361,7 +360,8 @@ pub fn convergence_csv(report: &ConvergenceReport) -> String {
             r.l2_error,
             r.signed_error,
             r.wall_seconds,
-            r.steps
+            r.steps,
+            r.eta2
         ));
     }
     s

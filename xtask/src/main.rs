@@ -200,12 +200,21 @@ fn firmware_dir() -> PathBuf {
     root().join("examples").join("firmware")
 }
 
+/// Where firmware builds go: an explicit directory, so that neither
+/// `CARGO_TARGET_DIR` nor the firmware's own workspace decides where the
+/// image lands (and a stale image elsewhere is never run).
+fn firmware_target_dir() -> PathBuf {
+    root().join("target").join("firmware")
+}
+
 /// Builds the firmware and returns the path of the ELF image.
 fn build_firmware(target: &str, features: &[&str]) -> Result<PathBuf, String> {
     ensure_target(target)?;
     let out = Command::new(env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
         .current_dir(firmware_dir())
         .args(["build", "--quiet", "--release", "--target", target])
+        .arg("--target-dir")
+        .arg(firmware_target_dir())
         .args(features)
         .output()
         .map_err(|e| format!("{target}: cannot run cargo: {e}"))?;
@@ -219,11 +228,17 @@ fn build_firmware(target: &str, features: &[&str]) -> Result<PathBuf, String> {
             "firmware for {target} {features:?}: {first}\n{stderr}"
         ));
     }
-    Ok(firmware_dir()
-        .join("target")
+    let elf = firmware_target_dir()
         .join(target)
         .join("release")
-        .join("sph-firmware"))
+        .join("sph-firmware");
+    if !elf.is_file() {
+        return Err(format!(
+            "firmware for {target}: built, but {} is missing",
+            elf.display()
+        ));
+    }
+    Ok(elf)
 }
 
 fn qemu() -> Result<(), String> {
