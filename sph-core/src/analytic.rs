@@ -96,13 +96,13 @@ impl Couette {
         let mut sum = eta;
         for n in 1..=MAX_TERMS {
             let nf = n as f64;
-            let decay = libm::exp(-a * nf * nf);
+            let decay = crate::math::f64s::exp(-a * nf * nf);
             let sign = if n % 2 == 0 { 1.0 } else { -1.0 };
-            sum += 2.0 / (nf * PI) * sign * libm::sin(nf * PI * eta) * decay;
+            sum += 2.0 / (nf * PI) * sign * crate::math::f64s::sin(nf * PI * eta) * decay;
             // Tail bound: |sum_{m > n}| <= 2/((n+1) pi) e^{-a (n+1)^2} / (1 - e^{-a (2n+3)}).
             let next = nf + 1.0;
-            let tail = 2.0 / (next * PI) * libm::exp(-a * next * next)
-                / (1.0 - libm::exp(-a * (2.0 * nf + 3.0)));
+            let tail = 2.0 / (next * PI) * crate::math::f64s::exp(-a * next * next)
+                / (1.0 - crate::math::f64s::exp(-a * (2.0 * nf + 3.0)));
             if tail < self.tolerance {
                 break;
             }

@@ -241,12 +241,12 @@ impl Kernel for Gaussian {
     const NAME: &'static str = "gaussian";
     const SUPPORT: f64 = 3.0;
     fn sigma(dim: usize) -> f64 {
-        let e9 = libm::exp(-9.0);
-        let erf3 = libm::erf(3.0);
+        let e9 = crate::math::f64s::exp(-9.0);
+        let erf3 = crate::math::f64s::erf(3.0);
         match dim {
-            1 => 1.0 / (libm::sqrt(PI) * erf3),
+            1 => 1.0 / (crate::math::f64s::sqrt(PI) * erf3),
             2 => 1.0 / (PI * (1.0 - e9)),
-            _ => 1.0 / (PI * libm::sqrt(PI) * erf3 - 6.0 * PI * e9),
+            _ => 1.0 / (PI * crate::math::f64s::sqrt(PI) * erf3 - 6.0 * PI * e9),
         }
     }
     #[inline(always)]
@@ -389,7 +389,7 @@ mod tests {
         for k in 0..pieces {
             let (a, b) = (k as f64, k as f64 + 1.0);
             let step = (b - a) / n as f64;
-            let g = |q: f64| K::f::<S, Libm>(q) * libm::pow(q, (S::DIM - 1) as f64);
+            let g = |q: f64| K::f::<S, Libm>(q) * q.powi(S::DIM as i32 - 1);
             // Evaluate the open end just inside the piece so each piece sees its own polynomial.
             let edge = |q: f64| if q >= b { g(b - 1e-12) } else { g(q) };
             let mut s = g(a) + edge(b);

@@ -28,6 +28,31 @@ pub trait Math<F: Real>: Copy + Default + Debug + Send + Sync + 'static {
     fn floor(x: F) -> F;
 }
 
+/// `f64` functions for set-up constants and exact solutions (libm), so that
+/// this module stays the only caller of `libm` and `micromath`.
+pub(crate) mod f64s {
+    /// Square root.
+    #[inline]
+    pub fn sqrt(x: f64) -> f64 {
+        libm::sqrt(x)
+    }
+    /// Exponential.
+    #[inline]
+    pub fn exp(x: f64) -> f64 {
+        libm::exp(x)
+    }
+    /// Sine.
+    #[inline]
+    pub fn sin(x: f64) -> f64 {
+        libm::sin(x)
+    }
+    /// Error function.
+    #[inline]
+    pub fn erf(x: f64) -> f64 {
+        libm::erf(x)
+    }
+}
+
 /// The portable backend: `libm`, for both precisions.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Libm;

@@ -72,10 +72,21 @@ impl<S: Space> Grid<S> {
                 }
                 periodic[a] = true;
                 period[a] = extent[a];
-                let n = libm::floor(l / wide).max(1.0);
+                // Truncation is floor for these positive values.
+                let n = ((l / wide) as u64).max(1) as f64;
                 (n, l / n, 0.0)
             } else {
-                let n = libm::ceil((l + 2.0 * wide) / wide);
+                let span = (l + 2.0 * wide) / wide;
+                let n = if span.is_finite() && span < u32::MAX as f64 {
+                    let t = span as u64;
+                    if (t as f64) < span {
+                        t + 1
+                    } else {
+                        t
+                    }
+                } else {
+                    u64::MAX
+                } as f64;
                 (n, wide, -wide)
             };
             if !(n < u32::MAX as f64) {

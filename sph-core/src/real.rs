@@ -92,7 +92,7 @@ pub trait Real:
 }
 
 macro_rules! impl_real {
-    ($t:ty, $name:literal, $abs:path, $default_math:ty) => {
+    ($t:ty, $name:literal, $sign:expr, $default_math:ty) => {
         impl Real for $t {
             const ZERO: Self = 0.0;
             const ONE: Self = 1.0;
@@ -122,7 +122,8 @@ macro_rules! impl_real {
             }
             #[inline(always)]
             fn abs(self) -> Self {
-                $abs(self)
+                // Clear the sign bit: exact, and no library call.
+                <$t>::from_bits(self.to_bits() & !$sign)
             }
             #[inline(always)]
             fn trunc_i64(self) -> i64 {
@@ -133,10 +134,10 @@ macro_rules! impl_real {
 }
 
 #[cfg(not(feature = "fast-math"))]
-impl_real!(f32, "f32", libm::fabsf, crate::math::Libm);
+impl_real!(f32, "f32", 1u32 << 31, crate::math::Libm);
 #[cfg(feature = "fast-math")]
-impl_real!(f32, "f32", libm::fabsf, crate::math::Micromath);
-impl_real!(f64, "f64", libm::fabs, crate::math::Libm);
+impl_real!(f32, "f32", 1u32 << 31, crate::math::Micromath);
+impl_real!(f64, "f64", 1u64 << 63, crate::math::Libm);
 
 #[cfg(test)]
 mod tests {
@@ -149,6 +150,8 @@ mod tests {
         assert!(!Real::is_finite(f64::NAN));
         assert!(!Real::is_finite(f32::INFINITY));
         assert_eq!(Real::abs(-2.0f64), 2.0);
+        assert_eq!(Real::abs(-0.0f32).to_bits(), 0);
+        assert_eq!(Real::abs(f64::NEG_INFINITY), f64::INFINITY);
         assert_eq!(Real::trunc_i64(-1.5f64), -1);
         assert_eq!(Real::max(1.0f32, 2.0), 2.0);
         assert_eq!(Real::min(1.0f32, 2.0), 1.0);

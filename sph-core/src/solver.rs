@@ -1140,7 +1140,7 @@ where
             });
             norm2 += self.a.ve[i].norm2().to_f64();
         }
-        let mut scale = S::Real::from_f64(1.0 / libm::sqrt(norm2));
+        let mut scale = S::Real::ONE / M::sqrt(S::Real::from_f64(norm2));
         let mut rate = 0.0;
         for _ in 0..self.params.viscous_iterations {
             for i in 0..n {
@@ -1148,12 +1148,13 @@ where
             }
             self.sync_ghost_kinematics(true);
             self.run_forces::<E, true>(exec)?;
-            let norm = libm::sqrt(
+            let norm = M::sqrt(S::Real::from_f64(
                 self.a.dv[..n]
                     .iter()
                     .map(|a| a.norm2().to_f64())
                     .sum::<f64>(),
-            );
+            ))
+            .to_f64();
             if !(norm > 0.0 && norm.is_finite()) {
                 break;
             }
@@ -1273,7 +1274,9 @@ where
                 },
             )?
         };
-        self.travel += libm::sqrt(drift2.to_f64()) * dt;
+        if cfg!(feature = "neighbour-lists") && self.list_width > 0 {
+            self.travel += M::sqrt(drift2).to_f64() * dt;
+        }
         self.evaluate(exec)?;
         let eos = self.params.eos;
         let limit2 = self.speed_limit2;
@@ -1306,8 +1309,8 @@ where
                                 step,
                                 i,
                                 Fault::TooFast {
-                                    speed: libm::sqrt(speed2.to_f64()),
-                                    limit: libm::sqrt(limit2.to_f64()),
+                                    speed: M::sqrt(speed2).to_f64(),
+                                    limit: M::sqrt(limit2).to_f64(),
                                 },
                             ));
                         }
@@ -1341,8 +1344,9 @@ where
     /// Time-step limits at the current state.
     pub fn limits(&self) -> Limits {
         let h = self.params.h.to_f64();
-        let c = self.consts.c0.to_f64() + libm::sqrt(self.vmax2.to_f64());
-        let amax = libm::sqrt(self.amax2.to_f64());
+        let c = (self.consts.c0 + M::sqrt(self.vmax2)).to_f64();
+        let amax_r = M::sqrt(self.amax2);
+        let amax = amax_r.to_f64();
         Limits {
             cfl: if c > 0.0 { 0.25 * h / c } else { f64::INFINITY },
             viscous: if self.viscous_rate > 0.0 {
@@ -1351,7 +1355,7 @@ where
                 f64::INFINITY
             },
             force: if amax > 0.0 {
-                0.25 * libm::sqrt(h / amax)
+                0.25 * M::sqrt(self.params.h / amax_r).to_f64()
             } else {
                 f64::INFINITY
             },
