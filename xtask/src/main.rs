@@ -184,7 +184,7 @@ const RUNS: &[Firmware] = &[
         target: "thumbv7em-none-eabihf",
         cpu: "cortex-m4",
         machine: "mps2-an386",
-        features: &["--features", "micromath"],
+        features: &["--features", "fast-math"],
         backend: "micromath",
     },
     Firmware {
@@ -390,12 +390,12 @@ fn size() -> Result<(), String> {
         ),
         ("simulation, libm, with error report", &[]),
         (
-            "simulation, micromath, silent",
-            &["--no-default-features", "--features", "sim,micromath"],
+            "simulation, fast-math, silent",
+            &["--no-default-features", "--features", "sim,fast-math"],
         ),
         (
-            "simulation, micromath, with error report",
-            &["--features", "micromath"],
+            "simulation, fast-math, with error report",
+            &["--features", "fast-math"],
         ),
     ];
     let mut rows = Vec::new();
@@ -420,7 +420,7 @@ fn size() -> Result<(), String> {
         rows[1].2 - base_ram
     );
     println!(
-        "The core's Couette step (micromath): {:>6} B flash, {:>6} B static RAM",
+        "The core's Couette step (fast-math): {:>6} B flash, {:>6} B static RAM",
         rows[3].1 - base_flash,
         rows[3].2 - base_ram
     );

@@ -1,7 +1,7 @@
 //! A Couette run on a Cortex-M under emulation (see `scene.rs`), printed over
 //! semihosting. Exits non-zero unless the error stays within the bound at
 //! every output time with t* >= 0.05: 2 % of U with libm (0.38 % measured),
-//! 4 % with micromath (1.27 % measured: its square root is a few percent off,
+//! 4 % with `fast-math`, i.e. micromath (1.27 % measured: its square root is a few percent off,
 //! which shifts every kernel argument; the bound keeps a 3x margin).
 //! The store lives in a `static`, so the static RAM of the image is the whole
 //! memory bill of the simulation.
@@ -39,14 +39,13 @@ fn idle() -> ! {
 #[cfg(feature = "sim")]
 mod scene;
 
-#[cfg(all(feature = "sim", not(feature = "micromath")))]
-type Backend = sph_core::math::Libm;
-#[cfg(all(feature = "sim", feature = "micromath"))]
-type Backend = sph_core::math::Micromath;
+/// f32's default math backend: libm, or micromath with `fast-math`.
+#[cfg(feature = "sim")]
+type Backend = <f32 as sph_core::real::Real>::DefaultMath;
 
 /// Largest error allowed (ppm of U) at t* >= 0.05.
 #[cfg(all(feature = "sim", feature = "report"))]
-const BOUND_PPM: u32 = if cfg!(feature = "micromath") {
+const BOUND_PPM: u32 = if cfg!(feature = "fast-math") {
     40_000
 } else {
     20_000
