@@ -6,7 +6,7 @@
 //! names a thread: it hands an executor the mutable output slices (as a
 //! [`Chunk`]) and a closure; [`Serial`] runs it in one call, and a frontend
 //! can split the slices and run the pieces in parallel (`sph-std` does so
-//! with rayon) without any `unsafe`.
+//! with rayon) in safe Rust alone.
 
 use crate::error::Result;
 use crate::real::Real;

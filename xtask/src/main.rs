@@ -104,21 +104,28 @@ fn cross() -> Result<(), String> {
                 "{target} ({what}), features: {}",
                 features.unwrap_or("default")
             );
-            let out = cmd
-                .output()
-                .map_err(|e| format!("{label}: cannot run cargo: {e}"))?;
-            if !out.status.success() {
-                let stderr = String::from_utf8_lossy(&out.stderr);
-                let first = stderr
-                    .lines()
-                    .find(|l| l.starts_with("error"))
-                    .unwrap_or("build failed");
-                return fail(format!("{label}: {first}\n{stderr}"));
-            }
+            run_build(&mut cmd, &label)?;
             println!("ok  sph-core for {label}");
         }
     }
     Ok(())
+}
+
+/// Runs a cargo build; on failure, an error naming `label`, the first
+/// `error` line, and the whole of cargo's output.
+fn run_build(cmd: &mut Command, label: &str) -> Result<(), String> {
+    let out = cmd
+        .output()
+        .map_err(|e| format!("{label}: cannot run cargo: {e}"))?;
+    if out.status.success() {
+        return Ok(());
+    }
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let first = stderr
+        .lines()
+        .find(|l| l.starts_with("error"))
+        .unwrap_or("build failed");
+    fail(format!("{label}: {first}\n{stderr}"))
 }
 
 fn deps() -> Result<(), String> {
@@ -210,24 +217,13 @@ fn firmware_target_dir() -> PathBuf {
 /// Builds the firmware and returns the path of the ELF image.
 fn build_firmware(target: &str, features: &[&str]) -> Result<PathBuf, String> {
     ensure_target(target)?;
-    let out = Command::new(env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
-        .current_dir(firmware_dir())
+    let mut cmd = Command::new(env::var("CARGO").unwrap_or_else(|_| "cargo".into()));
+    cmd.current_dir(firmware_dir())
         .args(["build", "--quiet", "--release", "--target", target])
         .arg("--target-dir")
         .arg(firmware_target_dir())
-        .args(features)
-        .output()
-        .map_err(|e| format!("{target}: cannot run cargo: {e}"))?;
-    if !out.status.success() {
-        let stderr = String::from_utf8_lossy(&out.stderr);
-        let first = stderr
-            .lines()
-            .find(|l| l.starts_with("error"))
-            .unwrap_or("build failed");
-        return Err(format!(
-            "firmware for {target} {features:?}: {first}\n{stderr}"
-        ));
-    }
+        .args(features);
+    run_build(&mut cmd, &format!("firmware for {target} {features:?}"))?;
     let elf = firmware_target_dir()
         .join(target)
         .join("release")
