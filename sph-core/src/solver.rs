@@ -987,7 +987,7 @@ where
     /// sorts all particles into cells.
     fn build_cells(&mut self, radius: S::Real) -> Result<()> {
         let every = self.params.reorder_every;
-        if every > 0 && self.builds > 0 && self.builds % every == 0 {
+        if every > 0 && self.builds > 0 && self.builds.is_multiple_of(every) {
             self.reorder_by_cell();
         }
         self.builds = self.builds.wrapping_add(1);
