@@ -4,11 +4,13 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Args, Parser, Subcommand};
+use sph_std::cases::{self, Settings};
 use sph_std::config::{
     CouetteConfig, DensityMode, KernelName, MathBackend, Precision, ViscosityForm,
 };
 use sph_std::error::Result;
-use sph_std::{bench, couette, output, progress, studies};
+use sph_std::scene::Regularise;
+use sph_std::{bench, couette, output, progress, report, studies};
 
 #[derive(Parser, Debug)]
 #[command(
@@ -47,6 +49,180 @@ enum Command {
     /// around the default), each timed on one thread. Writes pareto.csv,
     /// pareto.png and cheapest.txt (the cheapest run for 10 %, 1 % and 0.1 % of U).
     Pareto(StudyArgs),
+    /// Runs a built-in case by name, or a scene file (`case = "NAME"` plus keys).
+    ///
+    /// Writes summary.json (every resolved parameter, diagnostics and errors
+    /// per output time), particles.csv, config.toml (the resolved settings,
+    /// to repeat the run with `sph run out/CASE/config.toml`), diagnostics.png
+    /// and, with --vtk, particle snapshots. Flags override the file. A run
+    /// whose state degenerates or diverges writes what it computed with
+    /// `complete: false` and exits with status 1.
+    Run(Box<RunArgs>),
+    /// Lists the built-in cases.
+    Cases,
+}
+
+#[derive(Args, Debug)]
+struct RunArgs {
+    /// A built-in case (see `sph cases`) or a scene file ending in .toml.
+    #[arg(value_name = "CASE|FILE")]
+    scene: String,
+    /// Output directory [default: out/<case>].
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+    /// Particles across the case's reference length.
+    #[arg(long, value_name = "N")]
+    resolution: Option<usize>,
+    /// Dimension.
+    #[arg(long, value_name = "2|3")]
+    dim: Option<usize>,
+    /// End time in seconds.
+    #[arg(long, value_name = "S")]
+    t_end: Option<f64>,
+    /// Time between outputs in seconds.
+    #[arg(long, value_name = "S")]
+    output_interval: Option<f64>,
+    /// Reynolds number.
+    #[arg(long, value_name = "RE")]
+    re: Option<f64>,
+    /// Worker threads; 0 = all cores.
+    #[arg(long, value_name = "T")]
+    threads: Option<usize>,
+    /// Smoothing kernel.
+    #[arg(long, value_name = "NAME", value_parser = parse_name::<KernelName>)]
+    kernel: Option<KernelName>,
+    /// Overlap factor beta = h / dx.
+    #[arg(long, value_name = "B")]
+    beta: Option<f64>,
+    /// Density mode.
+    #[arg(long, value_name = "MODE", value_parser = parse_name::<DensityMode>)]
+    density: Option<DensityMode>,
+    /// Viscous form.
+    #[arg(long, value_name = "FORM", value_parser = parse_name::<ViscosityForm>)]
+    viscosity: Option<ViscosityForm>,
+    /// Floating-point precision.
+    #[arg(long, value_name = "P", value_parser = parse_name::<Precision>)]
+    precision: Option<Precision>,
+    /// Math backend.
+    #[arg(long, value_name = "M", value_parser = parse_name::<MathBackend>)]
+    math: Option<MathBackend>,
+    /// Particle regularisation: none or shifting.
+    #[arg(long, value_name = "METHOD", value_parser = parse_name::<Regularise>)]
+    regularise: Option<Regularise>,
+    /// Shifting coefficient C.
+    #[arg(long, value_name = "C")]
+    shift_coefficient: Option<f64>,
+    /// Density diffusion delta (continuity density only).
+    #[arg(long, value_name = "D")]
+    density_diffusion: Option<f64>,
+    /// Time step as a fraction of the smallest stability limit.
+    #[arg(long, value_name = "F")]
+    dt_factor: Option<f64>,
+    /// Write VTK particle snapshots (.vtu and a .pvd index).
+    #[arg(long)]
+    vtk: bool,
+    /// No progress bar and no table.
+    #[arg(long)]
+    quiet: bool,
+}
+
+impl RunArgs {
+    /// The settings: the case's defaults, then the file, then the flags.
+    fn settings(&self) -> Result<Settings> {
+        let mut s = if self.scene.ends_with(".toml") {
+            Settings::from_file(std::path::Path::new(&self.scene))?
+        } else {
+            (cases::find(&self.scene)?.defaults)()
+        };
+        macro_rules! set {
+            ($($field:ident),+) => {
+                $(if let Some(v) = self.$field.clone() { s.$field = v; })+
+            };
+        }
+        set!(
+            resolution,
+            dim,
+            t_end,
+            output_interval,
+            re,
+            threads,
+            kernel,
+            beta,
+            density,
+            viscosity,
+            precision,
+            math,
+            regularise,
+            shift_coefficient,
+            density_diffusion,
+            dt_factor
+        );
+        s.validate()?;
+        Ok(s)
+    }
+}
+
+fn run_scene(args: &RunArgs) -> Result<()> {
+    let settings = args.settings()?;
+    let scene = cases::scene(&settings)?;
+    let dir = args
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("out").join(&settings.case));
+    let bar = progress::Bar::new(&settings.case, args.quiet);
+    let (record, written) = output::in_dir(&dir, || {
+        let record = sph_std::scene::run(&scene, &bar)?;
+        let written = report::write_record(&record, Some(&settings), &dir, args.vtk)?;
+        Ok((record, written))
+    })?;
+    if !args.quiet {
+        let p = &record.physics;
+        println!(
+            "{}: {} particles ({} across), {} kernel, beta {}, {} viscosity, {} density, regularise {}, {}/{}",
+            record.case, record.n_fluid, settings.resolution, p.kernel, p.beta, p.viscosity, p.density, p.regularise, p.precision, p.math
+        );
+        println!(
+            "dt = {:.4e} s, {} steps, {} thread(s), {:.2} s",
+            record.dt, record.steps, record.threads, record.wall_seconds
+        );
+        println!();
+        println!(
+            "{:>10} {:>12} {:>11} {:>11} {:>9} {:>10} {:>10}",
+            "t [s]", "kinetic", "Linf", "L2", "min dx", "max drho", "max Mach"
+        );
+        for d in &record.outputs {
+            let opt = |x: Option<f64>| x.map_or("-".to_string(), |v| format!("{v:.3e}"));
+            println!(
+                "{:>10.4} {:>12.5e} {:>11} {:>11} {:>9.3} {:>10.2e} {:>10.3}",
+                d.t,
+                d.kinetic_energy,
+                opt(d.linf),
+                opt(d.l2),
+                d.min_spacing,
+                d.max_density_deviation,
+                d.max_mach
+            );
+        }
+        if record.steady {
+            println!("Steady state reached (kinetic energy change below the case's tolerance).");
+        }
+        let names: Vec<String> = written
+            .iter()
+            .filter_map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
+            .collect();
+        println!("Wrote {} to {}", names.join(", "), dir.display());
+    }
+    match &record.stop {
+        None => Ok(()),
+        Some(stop) => Err(sph_std::error::Error::Stopped(stop.reason.clone())),
+    }
+}
+
+fn list_cases() -> Result<()> {
+    for c in cases::CASES {
+        println!("{:<20} {}", c.name, c.about);
+    }
+    Ok(())
 }
 
 #[derive(Args, Debug)]
@@ -487,6 +663,8 @@ fn main() -> ExitCode {
         Command::Bench(args) => run_bench(args),
         Command::Convergence(args) => run_convergence(args),
         Command::Pareto(args) => run_pareto(args),
+        Command::Run(args) => run_scene(args),
+        Command::Cases => list_cases(),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

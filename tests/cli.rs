@@ -202,3 +202,81 @@ fn the_documented_example_config_is_the_default() {
     let documented = sph::std::config::CouetteConfig::from_file(&path).unwrap();
     assert_eq!(documented, sph::std::config::CouetteConfig::default());
 }
+
+#[test]
+fn sph_cases_lists_every_built_in_case() {
+    let out = sph().arg("cases").output().unwrap();
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    for name in ["couette", "poiseuille", "taylor-green", "lid-driven-cavity"] {
+        assert!(text.contains(name), "{name} missing from:\n{text}");
+    }
+}
+
+#[test]
+fn a_collapsed_run_publishes_its_results_and_exits_with_status_one() {
+    let out = scratch("collapse");
+    let result = sph()
+        .args([
+            "run",
+            "taylor-green",
+            "--quiet",
+            "--resolution",
+            "32",
+            "--t-end",
+            "1",
+            "--regularise",
+            "none",
+            "--threads",
+            "1",
+        ])
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert_eq!(result.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&result.stderr);
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(err.contains("particle") && err.contains("t = "), "{err}");
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["complete"], false);
+    assert!(summary["reason"]
+        .as_str()
+        .unwrap()
+        .contains("closest neighbour"));
+    let csv = std::fs::read_to_string(out.join("particles.csv")).unwrap();
+    assert!(csv.starts_with("t,id,x,y,vx,vy,rho,p\n"));
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+#[test]
+fn an_unknown_case_or_key_is_one_clear_line_and_leaves_nothing() {
+    let out = scratch("unknown");
+    let result = sph()
+        .args(["run", "vortex"])
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert_eq!(result.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&result.stderr);
+    assert!(
+        err.contains("taylor-green") && err.trim().lines().count() == 1,
+        "{err}"
+    );
+    assert!(!out.exists());
+    let file = std::env::temp_dir().join(format!("sph-cli-{}-bad.toml", std::process::id()));
+    std::fs::write(&file, "case = \"poiseuille\"\nresolutoin = 20\n").unwrap();
+    let result = sph()
+        .arg("run")
+        .arg(&file)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert_eq!(result.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&result.stderr).contains("resolutoin"));
+    assert!(!out.exists());
+    let _ = std::fs::remove_file(&file);
+}

@@ -185,6 +185,7 @@ mod rates {
             cell_index: &mut cell,
             neighbours: &mut nbr,
             neighbour_counts: &mut counts,
+            shift: &mut [],
         };
         let params = Params::new(
             h,

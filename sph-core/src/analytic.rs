@@ -111,6 +111,85 @@ impl Couette {
     }
 }
 
+/// Plane Poiseuille flow started from rest (`shared/physics.md` 6.b).
+///
+/// Walls at `y_lower` and `y_upper` (gap `H`, both at rest), a body force `f`
+/// per unit mass along x switched on at `t = 0`, kinematic viscosity `nu`.
+/// With `s = y - y_lower`,
+///
+/// `u(y, t) = f/(2 nu) s (H - s) - sum_{n >= 0} 4 f H^2/(nu pi^3 (2n+1)^3) sin((2n+1) pi s/H) exp(-(2n+1)^2 pi^2 nu t/H^2)`;
+///
+/// steady centre-line speed `u_max = f H^2 / (8 nu)`. The series stops when
+/// a bound on its tail falls below `tolerance * u_max` (default `1e-14`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Poiseuille {
+    /// Lower wall.
+    pub y_lower: f64,
+    /// Upper wall.
+    pub y_upper: f64,
+    /// Body force per unit mass along x.
+    pub f: f64,
+    /// Kinematic viscosity.
+    pub nu: f64,
+    /// Truncation tolerance relative to `u_max`.
+    pub tolerance: f64,
+}
+
+impl Poiseuille {
+    /// A Poiseuille flow with the default tolerance `1e-14`.
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] unless `y_upper > y_lower`, `nu > 0` and all are finite.
+    pub fn new(y_lower: f64, y_upper: f64, f: f64, nu: f64) -> Result<Self> {
+        let c = Couette::new(y_lower, y_upper, f, nu)?;
+        Ok(Self {
+            y_lower: c.y_lower,
+            y_upper: c.y_upper,
+            f,
+            nu,
+            tolerance: 1e-14,
+        })
+    }
+
+    /// Gap width `H`.
+    pub fn gap(&self) -> f64 {
+        self.y_upper - self.y_lower
+    }
+
+    /// Steady centre-line speed `f H^2 / (8 nu)`.
+    pub fn u_max(&self) -> f64 {
+        self.f * self.gap() * self.gap() / (8.0 * self.nu)
+    }
+
+    /// Velocity along x at height `y` and time `t` (zero outside the gap and at `t <= 0`).
+    pub fn velocity(&self, y: f64, t: f64) -> f64 {
+        let h = self.gap();
+        let s = y - self.y_lower;
+        if s <= 0.0 || s >= h || t <= 0.0 {
+            return 0.0;
+        }
+        let a = PI * PI * self.nu * t / (h * h);
+        let c = 4.0 * self.f * h * h / (self.nu * PI * PI * PI);
+        let mut sum = self.f / (2.0 * self.nu) * s * (h - s);
+        let limit = self.tolerance * self.u_max().abs();
+        for n in 0..MAX_TERMS {
+            let k = (2 * n + 1) as f64;
+            sum -= c / (k * k * k)
+                * crate::math::f64s::sin(k * PI * s / h)
+                * crate::math::f64s::exp(-a * k * k);
+            // Tail over odd m >= k + 2: each term is below c/m^3 e^{-a m^2};
+            // bounded by the geometric series of ratio e^{-4a(k+3)}.
+            let next = k + 2.0;
+            let tail = c / (next * next * next) * crate::math::f64s::exp(-a * next * next)
+                / (1.0 - crate::math::f64s::exp(-4.0 * a * (next + 1.0)));
+            if tail.abs() < limit {
+                break;
+            }
+        }
+        sum
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -150,6 +229,29 @@ mod tests {
         // Very early times need many terms but stay bounded and finite.
         let early = b.velocity(0.99e-3, 1e-6);
         assert!(early.is_finite() && early > 0.0 && early < 1.25e-5);
+    }
+
+    /// Reference values of `shared/physics.md` 6.b (u/u_max at the centre and at y = H/4).
+    #[test]
+    fn poiseuille_matches_reference_table() {
+        let p = Poiseuille::new(0.0, 1.0, 8.0, 1.0).unwrap();
+        assert_eq!(p.u_max(), 1.0);
+        let table = [
+            (0.0225, 0.178619, 0.161915),
+            (0.045, 0.338766, 0.281444),
+            (0.1125, 0.659993, 0.509576),
+            (0.225, 0.887984, 0.670793),
+            (0.5, 0.992578, 0.744752),
+            (1.0, 0.999947, 0.749962),
+        ];
+        for (t, centre, quarter) in table {
+            assert!((p.velocity(0.5, t) - centre).abs() < 1e-6, "t*={t}");
+            assert!((p.velocity(0.25, t) - quarter).abs() < 1e-6, "t*={t}");
+        }
+        // Steady parabola, rest at t = 0, zero at the walls.
+        assert!((p.velocity(0.25, 100.0) - 0.75).abs() < 1e-14);
+        assert_eq!(p.velocity(0.5, 0.0), 0.0);
+        assert_eq!(p.velocity(0.0, 1.0), 0.0);
     }
 
     #[test]

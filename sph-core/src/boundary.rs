@@ -16,7 +16,7 @@
 //! Running out of reserved capacity is [`Error::CapacityExceeded`] with the
 //! number of ghosts needed, not a panic.
 
-use crate::domain::{Domain, Side, WallKind};
+use crate::domain::{Domain, Reflection, Side, WallKind};
 use crate::error::{Error, Result};
 use crate::real::Real;
 use crate::space::{Space, VectorOps};
@@ -33,16 +33,81 @@ pub struct Ghost {
     pub mirrors: u8,
 }
 
-/// Mirrors position `x` across the walls named in `mirrors`.
+/// Reflects position `x` across the walls named in `mirrors`: the normal
+/// coordinate always; for a [`Reflection::Point`] wall the coordinates along
+/// the wall too, through the wall's anchor (the result may then lie up to
+/// one period outside the box along those axes).
 #[inline]
 pub fn mirror_position<S: Space>(domain: &Domain<S>, mut x: S::Vector, mirrors: u8) -> S::Vector {
     let extent = domain.extent();
     for a in 0..S::DIM {
-        if mirrors & (1 << (2 * a)) != 0 {
-            x[a] = -x[a];
+        for (bit, side) in [(2 * a, Side::Lower), (2 * a + 1, Side::Upper)] {
+            if mirrors & (1 << bit) == 0 {
+                continue;
+            }
+            x[a] = match side {
+                Side::Lower => -x[a],
+                Side::Upper => S::Real::TWO * extent[a] - x[a],
+            };
+            if domain.wall(a, side).map(|w| w.reflection) == Some(Reflection::Point) {
+                let anchor = domain.anchor(a, side);
+                for b in 0..S::DIM {
+                    if b != a {
+                        x[b] = S::Real::TWO * anchor[b] - x[b];
+                    }
+                }
+            }
         }
-        if mirrors & (1 << (2 * a + 1)) != 0 {
-            x[a] = S::Real::TWO * extent[a] - x[a];
+    }
+    x
+}
+
+/// Moves `x` by whole periods along the periodic axes so that it lies within
+/// half a period of `near` (a few steps at most; positions are finite).
+#[inline]
+pub fn nearest_image<S: Space>(domain: &Domain<S>, mut x: S::Vector, near: S::Vector) -> S::Vector {
+    let extent = domain.extent();
+    for a in 0..S::DIM {
+        if !domain.is_periodic(a) {
+            continue;
+        }
+        let l = extent[a];
+        let half = S::Real::HALF * l;
+        // An anchor that wrapped moves a point image by two periods.
+        for _ in 0..4 {
+            if x[a] - near[a] > half {
+                x[a] -= l;
+            } else if near[a] - x[a] > half {
+                x[a] += l;
+            } else {
+                break;
+            }
+        }
+    }
+    x
+}
+
+/// The image of `x` inside `[0, extent)` along the periodic axes, for a
+/// point that lies less than two periods outside (mirror images of wrapped
+/// fluid positions do).
+#[inline]
+fn into_box<S: Space>(domain: &Domain<S>, mut x: S::Vector) -> S::Vector {
+    let extent = domain.extent();
+    for a in 0..S::DIM {
+        if !domain.is_periodic(a) {
+            continue;
+        }
+        let l = extent[a];
+        for _ in 0..2 {
+            if x[a] < S::Real::ZERO {
+                x[a] += l;
+            } else if x[a] >= l {
+                x[a] -= l;
+            }
+        }
+        // Rounding can land on `l` (the same point as 0).
+        if !(x[a] >= S::Real::ZERO && x[a] < l) {
+            x[a] = S::Real::ZERO;
         }
     }
     x
@@ -123,7 +188,7 @@ pub fn generate<S: Space>(
                         continue;
                     }
                     if count < available {
-                        tail[count] = mirror_position(domain, xi, mirrors);
+                        tail[count] = into_box(domain, mirror_position(domain, xi, mirrors));
                         ghosts[count] = Ghost {
                             source: i as u32,
                             mirrors,

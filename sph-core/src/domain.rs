@@ -41,6 +41,24 @@ pub enum WallKind {
     FreeSlip,
 }
 
+/// How a wall places its ghosts (see [`crate::boundary`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Reflection {
+    /// Mirror image across the wall plane: the ghost keeps its source's
+    /// tangential coordinates. Works for every wall.
+    #[default]
+    Mirror,
+    /// Point reflection through an anchor point on the wall plane that moves
+    /// with the wall: the tangential coordinates are reflected too. For
+    /// no-slip walls whose tangential axes are all periodic (channels). The
+    /// ghosts then move with the velocity the no-slip rule gives them, so a
+    /// sheared lattice continues through the wall unchanged; with mirrored
+    /// ghosts the rows near the wall lose their point symmetry as they slide
+    /// (`shared/physics.md` 10) and a steady linear profile is no longer an
+    /// exact discrete solution.
+    Point,
+}
+
 /// A planar wall: its kind and its velocity (tangential motion drives the flow;
 /// the normal component must be zero since the wall does not move in the model).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -49,6 +67,8 @@ pub struct Wall<S: Space> {
     pub kind: WallKind,
     /// Wall velocity.
     pub velocity: S::Vector,
+    /// Ghost placement.
+    pub reflection: Reflection,
 }
 
 impl<S: Space> Wall<S> {
@@ -57,6 +77,7 @@ impl<S: Space> Wall<S> {
         Self {
             kind: WallKind::NoSlip,
             velocity: S::Vector::zero(),
+            reflection: Reflection::Mirror,
         }
     }
 
@@ -65,6 +86,7 @@ impl<S: Space> Wall<S> {
         Self {
             kind: WallKind::NoSlip,
             velocity,
+            reflection: Reflection::Mirror,
         }
     }
 
@@ -73,7 +95,14 @@ impl<S: Space> Wall<S> {
         Self {
             kind: WallKind::FreeSlip,
             velocity: S::Vector::zero(),
+            reflection: Reflection::Mirror,
         }
+    }
+
+    /// The same wall with point-reflected ghosts ([`Reflection::Point`]).
+    pub fn point_reflected(mut self) -> Self {
+        self.reflection = Reflection::Point;
+        self
     }
 }
 
@@ -84,6 +113,8 @@ pub struct Domain<S: Space> {
     extent: S::Vector,
     periodic: [bool; 3],
     walls: [[Option<Wall<S>>; 2]; 3],
+    /// Anchor of each point-reflecting wall: `V_w t` wrapped into the box.
+    anchors: [[S::Vector; 2]; 3],
 }
 
 fn axis_error(axis: usize) -> Error {
@@ -124,6 +155,7 @@ impl<S: Space> Domain<S> {
             extent,
             periodic: [false; 3],
             walls: [[None; 2]; 3],
+            anchors: [[S::Vector::zero(); 2]; 3],
         })
     }
 
@@ -176,8 +208,76 @@ impl<S: Space> Domain<S> {
                 rule: "a wall may only move tangentially: its normal velocity must be zero",
             });
         }
+        if wall.reflection == Reflection::Point && wall.kind != WallKind::NoSlip {
+            return Err(Error::InvalidParameter {
+                name: "wall.reflection",
+                value: axis as f64,
+                rule: "point-reflected ghosts need a no-slip wall",
+            });
+        }
         self.walls[axis][side.index()] = Some(wall);
         Ok(self)
+    }
+
+    /// Checks what can only be checked once the box is complete: a wall with
+    /// [`Reflection::Point`] needs every other axis periodic.
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] naming the wall's axis.
+    pub fn validate(&self) -> Result<()> {
+        for a in 0..S::DIM {
+            for w in self.walls[a].iter().flatten() {
+                if w.reflection == Reflection::Point
+                    && (0..S::DIM).any(|b| b != a && !self.periodic[b])
+                {
+                    return Err(Error::InvalidParameter {
+                        name: "wall.reflection",
+                        value: a as f64,
+                        rule:
+                            "point-reflected ghosts need every axis along the wall to be periodic",
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Moves the anchors of point-reflecting walls to where the walls are at
+    /// time `t` (seconds since the start): `V_w t`, wrapped into the box.
+    pub fn set_wall_time(&mut self, t: f64) {
+        for a in 0..S::DIM {
+            for s in 0..2 {
+                let Some(w) = self.walls[a][s] else { continue };
+                if w.reflection != Reflection::Point {
+                    continue;
+                }
+                let mut anchor = S::Vector::zero();
+                for b in 0..S::DIM {
+                    if b != a && self.periodic[b] {
+                        let l = self.extent[b].to_f64();
+                        let c = w.velocity[b].to_f64() * t;
+                        let c = c - l * crate::math::f64s::floor(c / l);
+                        let c = S::Real::from_f64(c);
+                        anchor[b] = if c >= self.extent[b] || c < S::Real::ZERO {
+                            S::Real::ZERO
+                        } else {
+                            c
+                        };
+                    }
+                }
+                self.anchors[a][s] = anchor;
+            }
+        }
+    }
+
+    /// The anchor of the wall on `side` of `axis` (local coordinates along
+    /// the wall; zero for mirroring walls).
+    pub fn anchor(&self, axis: usize, side: Side) -> S::Vector {
+        if axis < S::DIM {
+            self.anchors[axis][side.index()]
+        } else {
+            S::Vector::zero()
+        }
     }
 
     /// Absolute coordinates of the lower corner.

@@ -29,7 +29,7 @@ pub mod terms;
 
 /// The names most scenes need.
 pub mod prelude {
-    pub use crate::domain::{Domain, Side, Wall, WallKind};
+    pub use crate::domain::{Domain, Reflection, Side, Wall, WallKind};
     pub use crate::eos::Eos;
     pub use crate::error::{Error, Fault, Result};
     pub use crate::exec::{Executor, Serial};
@@ -42,7 +42,7 @@ pub mod prelude {
     pub use crate::space::{Space, Vector, VectorOps, D1, D2, D3};
     pub use crate::store::Store;
     pub use crate::terms::{
-        AnyViscosity, ArtificialViscosity, BodyForce, Continuity, MorrisViscosity, PiViscosity,
-        PressureGradient, SummationDensity, Term,
+        AnyViscosity, ArtificialViscosity, BodyForce, Continuity, DensityDiffusion,
+        MorrisViscosity, PiViscosity, PressureGradient, Shifting, SummationDensity, Term,
     };
 }

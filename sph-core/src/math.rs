@@ -46,6 +46,11 @@ pub(crate) mod f64s {
     pub fn sin(x: f64) -> f64 {
         libm::sin(x)
     }
+    /// Largest integer not greater than `x`.
+    #[inline]
+    pub fn floor(x: f64) -> f64 {
+        libm::floor(x)
+    }
     /// Error function.
     #[inline]
     pub fn erf(x: f64) -> f64 {

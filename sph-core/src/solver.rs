@@ -94,6 +94,9 @@ pub struct Storage<'a, S: Space> {
     /// Entries used in each row of `neighbours` (capacity entries, or empty
     /// together with `neighbours`).
     pub neighbour_counts: &'a mut [u32],
+    /// Shifting velocities (capacity entries) when the force group shifts
+    /// particles (see [`crate::terms::Shifting`]); otherwise may be empty.
+    pub shift: &'a mut [S::Vector],
 }
 
 /// Bytes of [`Storage`] per particle slot for space `S`, without neighbour
@@ -223,6 +226,13 @@ type DriftParts<'s, S> = (
     &'s mut [<S as Space>::Real],
 );
 
+/// The fluid slices the force pass writes with shifting: `dv`, `drho`, `shift`.
+type RatesParts<'s, S> = (
+    &'s mut [<S as Space>::Vector],
+    &'s mut [<S as Space>::Real],
+    &'s mut [<S as Space>::Vector],
+);
+
 /// The fluid slices the last kick writes: `v`, `rho`, `p`.
 type KickParts<'s, S> = (
     &'s mut [<S as Space>::Vector],
@@ -245,6 +255,7 @@ struct Arrays<'a, S: Space> {
     ghosts: &'a mut [Ghost],
     nbr: &'a mut [u32],
     nbr_count: &'a mut [u32],
+    shift: &'a mut [S::Vector],
 }
 
 /// Bits of a neighbour-list entry that hold the particle index; the six bits
@@ -290,6 +301,9 @@ fn start<S: Space>(f: &Fields<'_, S>, i: usize) -> (Dest<S>, Acc<S>) {
             rho: S::Real::ZERO,
             drho: S::Real::ZERO,
             dv: S::Vector::zero(),
+            shift: S::Vector::zero(),
+            grad_v: [S::Vector::zero(); 3],
+            grad_rho: S::Vector::zero(),
         },
     )
 }
@@ -351,6 +365,7 @@ impl<S: Space, K: Kernel, M: Math<S::Real>> Pass<'_, S, K, M> {
                 inside += 1;
             }
         }
+        terms.finish(self.consts, &d, &mut acc);
         (acc, inside)
     }
 
@@ -389,6 +404,35 @@ impl<S: Space, K: Kernel, M: Math<S::Real>> Pass<'_, S, K, M> {
             terms.viscous(self.consts, d, f, &pair, acc);
         } else {
             terms.pair(self.consts, d, f, &pair, acc);
+        }
+    }
+
+    /// Calls `f(j, r2)` for every neighbour `j` of `i` inside the support
+    /// (the self pair included), in the order the passes visit them.
+    fn for_each_neighbour(&self, i: usize, mut f: impl FnMut(usize, S::Real)) {
+        let fields = self.fields.uniform();
+        match self.neighbours {
+            Neighbours::Cells(cells) => {
+                cells.for_each_neighbour(self.grid, fields.x, i, |j, _, r2| f(j, r2))
+            }
+            Neighbours::Lists {
+                rows,
+                counts,
+                width,
+                ..
+            } => {
+                let Some(&xi) = fields.x.get(i) else { return };
+                let used = ((counts.get(i).copied().unwrap_or(0) & COUNT_MASK) as usize).min(width);
+                let row = rows.get(i * width..i * width + used).unwrap_or(&[]);
+                let radius2 = self.kernel.radius2();
+                for &entry in row {
+                    let (j, r_ij) = self.separation(&fields, xi, entry);
+                    let r2 = r_ij.norm2();
+                    if r2 < radius2 {
+                        f(j, r2);
+                    }
+                }
+            }
         }
     }
 
@@ -447,6 +491,9 @@ impl<S: Space, K: Kernel, M: Math<S::Real>> Pass<'_, S, K, M> {
                 }
             }
         }
+        if !VISCOUS_ONLY {
+            terms.finish(self.consts, &d, &mut acc);
+        }
         acc
     }
 }
@@ -478,6 +525,7 @@ pub struct Solver<'a, S: Space, K: Kernel, M: Math<S::Real>, D: Term<S>, T: Term
     list_width: usize,
     list_radius: S::Real,
     travel: f64,
+    anchor_speed: f64,
     lists_fresh: bool,
     partitioned: bool,
     failed: Option<Error>,
@@ -541,6 +589,7 @@ where
         forces: T,
     ) -> Result<Self> {
         params.validate()?;
+        domain.validate()?;
         let kernel = SmoothingKernel::<S, K, M>::new(params.h)?;
         let cap = storage.x.len();
         let list_width = Self::check_lists(&storage, cap)?;
@@ -581,6 +630,13 @@ where
                     got: len,
                 });
             }
+        }
+        if T::SHIFTS && storage.shift.len() != cap {
+            return Err(Error::LengthMismatch {
+                buffer: "shift",
+                expected: cap,
+                got: storage.shift.len(),
+            });
         }
         if n_fluid > cap {
             return Err(Error::CapacityExceeded {
@@ -665,6 +721,7 @@ where
             cell_index,
             neighbours,
             neighbour_counts,
+            shift,
         } = storage;
         let mut solver = Self {
             params,
@@ -687,6 +744,7 @@ where
                 ghosts,
                 nbr: neighbours,
                 nbr_count: neighbour_counts,
+                shift,
             },
             cells: CellList::new(cell_start, cell_sorted, cell_index),
             n: n_fluid,
@@ -701,6 +759,7 @@ where
             list_width,
             list_radius,
             travel: 0.0,
+            anchor_speed: point_wall_speed(&domain),
             lists_fresh: false,
             partitioned: false,
             failed: None,
@@ -830,8 +889,10 @@ where
         let n = self.n;
         let (fluid, ghosts) = self.a.x.split_at_mut(n);
         for (k, g) in self.a.ghosts[..self.n_ghost].iter().enumerate() {
-            ghosts[k] =
+            let image =
                 boundary::mirror_position(&self.domain, fluid[g.source as usize], g.mirrors);
+            // Keep the periodic image the neighbour lists were built with.
+            ghosts[k] = boundary::nearest_image(&self.domain, image, ghosts[k]);
         }
     }
 
@@ -1084,6 +1145,7 @@ where
             drho,
             nbr,
             nbr_count,
+            shift,
             ..
         } = &mut self.a;
         let pass = Pass {
@@ -1106,6 +1168,21 @@ where
             },
         };
         let forces = &self.forces;
+        if T::SHIFTS && !VISCOUS_ONLY {
+            let shift = &mut shift[..n];
+            return exec.run(
+                (&mut dv[..n], &mut drho[..n], shift),
+                &|start, (dv, drho, shift): RatesParts<'_, S>| {
+                    for k in 0..dv.len() {
+                        let acc = pass.accumulate::<T, false>(forces, start + k);
+                        dv[k] = acc.dv;
+                        drho[k] = acc.drho;
+                        shift[k] = acc.shift;
+                    }
+                    Ok(())
+                },
+            );
+        }
         exec.run((&mut dv[..n], &mut drho[..n]), &|start,
                                                    (dv, drho): (
             &mut [S::Vector],
@@ -1219,9 +1296,12 @@ where
                 rho_aux,
                 dv,
                 drho,
+                shift,
                 ..
             } = &mut self.a;
             let (dv, drho) = (&dv[..n], &drho[..n]);
+            let shifting = T::SHIFTS;
+            let shift: &[S::Vector] = if shifting { &shift[..n] } else { &[] };
             exec.run(
                 (
                     &mut x[..n],
@@ -1238,8 +1318,10 @@ where
                         let vh = v[k] + a * half;
                         v[k] = vh;
                         ve[k] = vh + a * half;
-                        fastest = fastest.max(vh.norm2());
-                        let xn = x[k] + vh * dtf;
+                        // The transport velocity: with shifting, v + u_s.
+                        let vt = if shifting { vh + shift[i] } else { vh };
+                        fastest = fastest.max(vt.norm2());
+                        let xn = x[k] + vt * dtf;
                         if !xn.is_finite() {
                             return Err(unstable(step, i, Fault::NonFinite { field: "position" }));
                         }
@@ -1275,8 +1357,10 @@ where
             )?
         };
         if cfg!(feature = "neighbour-lists") && self.list_width > 0 {
-            self.travel += M::sqrt(drift2).to_f64() * dt;
+            // A point-reflected ghost also moves with twice its wall's speed.
+            self.travel += (M::sqrt(drift2).to_f64() + 2.0 * self.anchor_speed) * dt;
         }
+        self.domain.set_wall_time(self.time + dt);
         self.evaluate(exec)?;
         let eos = self.params.eos;
         let limit2 = self.speed_limit2;
@@ -1451,6 +1535,24 @@ where
         }
     }
 
+    /// The closest pair of distinct fluid particles within the support at the
+    /// last evaluation, as `(i, j, distance)` with `i < j`; `None` if no two
+    /// fluid particles are that close. Serial; one neighbour scan, without
+    /// kernel evaluations (a state check for output times).
+    pub fn closest_fluid_pair(&self) -> Option<(usize, usize, f64)> {
+        let pass = self.pass();
+        let n = self.n;
+        let mut best: Option<(usize, usize, S::Real)> = None;
+        for i in 0..n {
+            pass.for_each_neighbour(i, |j, r2| {
+                if j < n && j != i && best.is_none_or(|b| r2 < b.2) {
+                    best = Some((i.min(j), i.max(j), r2));
+                }
+            });
+        }
+        best.map(|(i, j, r2)| (i, j, M::sqrt(r2).to_f64()))
+    }
+
     /// Number of fluid particles.
     pub fn n_fluid(&self) -> usize {
         self.n
@@ -1523,10 +1625,37 @@ where
         &self.kernel
     }
 
+    /// The force group, to change its coefficients between steps (for
+    /// example a shifting velocity scale that follows the flow). The group's
+    /// type, and so which terms run, cannot change.
+    pub fn forces_mut(&mut self) -> &mut T {
+        &mut self.forces
+    }
+
+    /// Largest fluid speed at the end of the last step.
+    pub fn max_speed(&self) -> f64 {
+        M::sqrt(self.vmax2).to_f64()
+    }
+
     /// The parameters.
     pub fn params(&self) -> &Params<S::Real> {
         &self.params
     }
+}
+
+/// The fastest point-reflecting wall (its anchor's speed), or zero.
+fn point_wall_speed<S: Space>(domain: &Domain<S>) -> f64 {
+    let mut fastest = 0.0f64;
+    for a in 0..S::DIM {
+        for side in [Side::Lower, Side::Upper] {
+            if let Some(w) = domain.wall(a, side) {
+                if w.reflection == crate::domain::Reflection::Point {
+                    fastest = fastest.max(crate::math::f64s::sqrt(w.velocity.norm2().to_f64()));
+                }
+            }
+        }
+    }
+    fastest
 }
 
 /// The neighbour source of a pass: lists when the solver has them, else cells.

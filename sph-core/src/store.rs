@@ -145,6 +145,7 @@ impl<S: Space, const N: usize, const C: usize> Store<S, N, C> {
                 cell_index: &mut self.cell_index,
                 neighbours: Default::default(),
                 neighbour_counts: Default::default(),
+                shift: Default::default(),
             },
             self.fluid,
         ))

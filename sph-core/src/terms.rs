@@ -100,6 +100,12 @@ pub struct Acc<S: Space> {
     pub drho: S::Real,
     /// Acceleration.
     pub dv: S::Vector,
+    /// Shifting velocity (only groups with [`Term::SHIFTS`] write it).
+    pub shift: S::Vector,
+    /// Velocity gradient, `grad_v[b] = d v / d x_b` (shifting only).
+    pub grad_v: [S::Vector; 3],
+    /// Density gradient (shifting only).
+    pub grad_rho: S::Vector,
 }
 
 /// Scene constants every term may read.
@@ -123,6 +129,9 @@ pub trait Term<S: Space>: Copy + Send + Sync {
     const VISCOUS: bool = false;
     /// The term does nothing at all (only `()`): its pass is skipped.
     const EMPTY: bool = false;
+    /// The term writes a shifting velocity (`Acc::shift`), which the solver
+    /// adds to the drift (see [`Shifting`]).
+    const SHIFTS: bool = false;
 
     /// Called once per destination before its neighbours.
     #[inline(always)]
@@ -139,6 +148,11 @@ pub trait Term<S: Space>: Copy + Send + Sync {
         _acc: &mut Acc<S>,
     ) {
     }
+
+    /// Called once per destination after its neighbours (not in the
+    /// viscous-only pass).
+    #[inline(always)]
+    fn finish(&self, _k: &Consts<S>, _d: &Dest<S>, _acc: &mut Acc<S>) {}
 
     /// The linear viscous part of `pair` alone (no pressure, no body force).
     #[inline(always)]
@@ -163,6 +177,7 @@ macro_rules! term_tuple {
             const NEEDS_W: bool = $($T::NEEDS_W)||+;
             const NEEDS_F: bool = $($T::NEEDS_F)||+;
             const VISCOUS: bool = $($T::VISCOUS)||+;
+            const SHIFTS: bool = $($T::SHIFTS)||+;
             #[inline(always)]
             fn init(&self, k: &Consts<S>, d: &Dest<S>, acc: &mut Acc<S>) {
                 $(self.$i.init(k, d, acc);)+
@@ -174,6 +189,10 @@ macro_rules! term_tuple {
             #[inline(always)]
             fn viscous(&self, k: &Consts<S>, d: &Dest<S>, f: &Fields<'_, S>, p: &Pair<S>, acc: &mut Acc<S>) {
                 $(self.$i.viscous(k, d, f, p, acc);)+
+            }
+            #[inline(always)]
+            fn finish(&self, k: &Consts<S>, d: &Dest<S>, acc: &mut Acc<S>) {
+                $(self.$i.finish(k, d, acc);)+
             }
         }
     };
@@ -410,5 +429,107 @@ impl<S: Space> Term<S> for AnyViscosity<S::Real> {
                 <ArtificialViscosity<S::Real> as Term<S>>::viscous(t, k, d, f, p, acc)
             }
         }
+    }
+}
+
+/// Particle shifting (Lind et al. 2012, in the form of the delta-plus-SPH
+/// scheme of Sun et al. 2017): each particle drifts with `v + u_s`, where
+///
+/// `u_s,i = -C U h sum_j V_j [1 + R (W_ij / W(dx))^4] grad_i W_ij`,
+///
+/// `V_j = m_j / rho_j`, `U` the scene's velocity scale, `C` a dimensionless
+/// coefficient and `R = 0.2`. The sum is the gradient of the particle
+/// concentration (zero on a uniform arrangement), so particles move from
+/// crowded to sparse regions; the `R` term repels close pairs, which breaks
+/// up the strings and clumps that form along stagnation lines in weakly
+/// compressible SPH (Taylor-Green vortex, cavities). Per unit time the shift
+/// is a diffusion of the particle positions with coefficient of order
+/// `C U h^2`; it does not change velocities or densities, so with summation
+/// density the density follows the shifted positions by itself.
+///
+/// Shifting is part of the force group; the solver needs a `shift` buffer
+/// (see [`crate::solver::Storage::shift`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Shifting<F> {
+    /// `C U h`: the coefficient times the velocity scale and `h`.
+    pub scale: F,
+    /// `1 / W(dx)`: the kernel value at the initial spacing, inverted.
+    pub inv_w_dx: F,
+    /// Weight `R` of the anti-clumping part (0.2 in Sun et al. 2017).
+    pub repulsion: F,
+}
+
+impl<F: Real> Shifting<F> {
+    /// Shifting with coefficient `c`, velocity scale `u`, smoothing length
+    /// `h`, and `w_dx` the kernel value at the initial particle spacing.
+    pub fn new(c: F, u: F, h: F, w_dx: F) -> Self {
+        let inv_w_dx = if w_dx > F::ZERO {
+            F::ONE / w_dx
+        } else {
+            F::ZERO
+        };
+        Self {
+            scale: c * u * h,
+            inv_w_dx,
+            repulsion: F::from_f64(0.2),
+        }
+    }
+}
+
+impl<S: Space> Term<S> for Shifting<S::Real> {
+    const NEEDS_W: bool = true;
+    const NEEDS_F: bool = true;
+    const SHIFTS: bool = true;
+    #[inline(always)]
+    fn pair(&self, _k: &Consts<S>, d: &Dest<S>, f: &Fields<'_, S>, p: &Pair<S>, acc: &mut Acc<S>) {
+        let j = p.j;
+        let vol = f.m[j] / f.rho[j];
+        let ratio = p.w * self.inv_w_dx;
+        let r2 = ratio * ratio;
+        let weight = S::Real::ONE + self.repulsion * r2 * r2;
+        acc.shift -= p.grad * (self.scale * weight * vol);
+        // First-order gradients <grad f>_i = sum_j V_j (f_j - f_i) grad_i W_ij,
+        // for the Taylor correction of the shifted particle's values.
+        for b in 0..S::DIM {
+            acc.grad_v[b] -= p.v_ij * (vol * p.grad[b]);
+        }
+        acc.grad_rho += p.grad * (vol * (f.rho[j] - d.rho));
+    }
+
+    /// A shifted particle samples the flow `u_s dt` away from where the fluid
+    /// took it: its velocity and density change by `u_s . grad` per unit time
+    /// (Lind et al. 2012, Taylor expansion to first order).
+    #[inline(always)]
+    fn finish(&self, _k: &Consts<S>, _d: &Dest<S>, acc: &mut Acc<S>) {
+        for b in 0..S::DIM {
+            acc.dv += acc.grad_v[b] * acc.shift[b];
+        }
+        acc.drho += acc.grad_rho.dot(acc.shift);
+    }
+}
+
+/// Density diffusion of Molteni & Colagrossi (2009), the delta-SPH term
+/// (`shared/physics.md` 3.2): with continuity density,
+///
+/// `d rho_i/dt += 2 delta h c0 sum_j V_j (rho_i - rho_j) (r_ij . grad_i W_ij) / (r^2 + eta^2)`,
+///
+/// `V_j = m_j / rho_j`. Since `r_ij . grad W < 0` it diffuses density
+/// differences at the particle scale (the checkerboard noise continuity
+/// density accumulates) and vanishes for uniform density; `delta = 0.1` is
+/// the usual value. Without a hydrostatic correction it also diffuses a
+/// hydrostatic density gradient, so it is for flows without gravity.
+#[derive(Clone, Copy, Debug)]
+pub struct DensityDiffusion<F> {
+    /// The coefficient `delta`.
+    pub delta: F,
+}
+
+impl<S: Space> Term<S> for DensityDiffusion<S::Real> {
+    const NEEDS_F: bool = true;
+    #[inline(always)]
+    fn pair(&self, k: &Consts<S>, d: &Dest<S>, f: &Fields<'_, S>, p: &Pair<S>, acc: &mut Acc<S>) {
+        let j = p.j;
+        let coeff = S::Real::TWO * self.delta * k.h * k.c0 * f.m[j] / f.rho[j];
+        acc.drho += coeff * (d.rho - f.rho[j]) * p.r_ij.dot(p.grad) / regularised(p.r2, k.eta2);
     }
 }

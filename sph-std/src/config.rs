@@ -229,7 +229,7 @@ impl Default for CouetteConfig {
     }
 }
 
-fn check(ok: bool, key: &str, value: impl fmt::Display, rule: &str) -> Result<()> {
+pub(crate) fn check(ok: bool, key: &str, value: impl fmt::Display, rule: &str) -> Result<()> {
     if ok {
         Ok(())
     } else {

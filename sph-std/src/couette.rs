@@ -17,23 +17,14 @@
 //! 20 across would not be. Summation density keeps walls impermeable and
 //! does not drift; continuity is the poster's choice and a setting.
 
-use std::time::Instant;
+use std::sync::Arc;
 
 use sph_core::analytic::Couette;
-use sph_core::exec::{Executor, Serial};
-use sph_core::kernel::{CubicSpline, Gaussian, Kernel, QuinticSpline, WendlandC2, WendlandC4};
-use sph_core::math::{Libm, Math, Micromath};
-use sph_core::prelude::{
-    AnyViscosity, ArtificialViscosity, Continuity, Domain, Eos, Limits, MorrisViscosity, Params,
-    PiViscosity, PressureGradient, Side, Solver, SummationDensity, Term, Vector, Wall, D2,
-};
-use sph_core::real::Real;
+use sph_core::prelude::Limits;
 
-use crate::config::{
-    CouetteConfig, DensityMode, KernelName, MathBackend, Precision, ViscosityForm,
-};
-use crate::driver::{Buffers, Rayon};
+use crate::config::{CouetteConfig, ViscosityForm};
 use crate::error::{Error, Result};
+use crate::scene::{AxisSpec, Monitor, Physics, Region, Regularise, Scene, WallSpec};
 
 /// Verlet skin of the neighbour lists (fraction of the support radius).
 pub const SKIN: f64 = 0.1;
@@ -226,219 +217,124 @@ impl CouetteRun {
     }
 }
 
-/// Runs the case.
+/// The scene of a configuration: the plates as point-reflecting walls of a
+/// periodic strip (see [`crate::scene`]).
+pub fn scene(cfg: &CouetteConfig) -> Scene {
+    let geo = Geometry::of(cfg);
+    let exact = Couette {
+        y_lower: geo.y_lower,
+        y_upper: geo.y_upper,
+        u: cfg.u_wall,
+        nu: cfg.nu,
+        tolerance: 1e-14,
+    };
+    let strip = geo.nx as f64 * geo.dx;
+    Scene {
+        case: "couette".into(),
+        dim: 2,
+        origin: [cfg.shift, geo.y_lower, 0.0],
+        extent: [strip, cfg.gap, 0.0],
+        axes: [
+            AxisSpec::Periodic,
+            AxisSpec::Walls(
+                Some(WallSpec::at_rest().point_reflected()),
+                Some(WallSpec::moving([cfg.u_wall, 0.0, 0.0]).point_reflected()),
+            ),
+            AxisSpec::Periodic,
+        ],
+        dx: geo.dx,
+        regions: vec![Region {
+            lo: [cfg.shift, geo.y_lower, 0.0],
+            hi: [cfg.shift + strip, geo.y_upper, 0.0],
+        }],
+        velocity: None,
+        pressure: None,
+        body_force: [0.0; 3],
+        rho0: cfg.rho0,
+        nu: cfg.nu,
+        physics: Physics {
+            kernel: cfg.kernel,
+            beta: cfg.beta,
+            eta2: cfg.eta2,
+            density: cfg.density,
+            viscosity: cfg.viscosity,
+            precision: cfg.precision,
+            math: cfg.math,
+            regularise: Regularise::None,
+            shift_coefficient: 0.0,
+            density_diffusion: 0.0,
+            alpha: geo.alpha,
+            sound_speed: geo.c0,
+            background_pressure: cfg.background_pressure * cfg.rho0 * geo.c0 * geo.c0,
+            dt_factor: cfg.dt_factor,
+        },
+        output_times: cfg.schedule(),
+        velocity_scale: cfg.u_wall,
+        length_scale: cfg.gap,
+        exact: Some(Arc::new(move |x, t| [exact.velocity(x[1], t), 0.0, 0.0])),
+        error_decay: 0.0,
+        // The Couette case predates the monitor: it reports, never stops on it.
+        monitor: Monitor {
+            min_spacing: 0.0,
+            max_density_deviation: f64::INFINITY,
+            max_mach: f64::INFINITY,
+            every: u64::MAX,
+        },
+        steady_tolerance: None,
+        threads: cfg.threads,
+        keep_particles: true,
+    }
+}
+
+/// Runs the case (on the scene layer, [`crate::scene::run`]).
 ///
 /// # Errors
 /// [`Error::Config`] for an invalid configuration; [`Error::Core`] if the
 /// core rejects the scene or the run diverges (naming step and particle).
 pub fn run(cfg: &CouetteConfig, progress: &dyn Progress) -> Result<CouetteRun> {
     cfg.validate()?;
-    let threads = cfg.resolved_threads();
-    let start = Instant::now();
-    let mut out = if threads == 1 {
-        dispatch(cfg, &Serial, progress)?
-    } else {
-        let pool = crate::driver::thread_pool(threads)?;
-        // About four pieces per thread, but no piece under 64 particles.
-        let min_chunk = (Geometry::of(cfg).n_fluid / (4 * threads)).max(64);
-        pool.install(|| dispatch(cfg, &Rayon { min_chunk }, progress))?
-    };
-    out.threads = threads;
-    out.wall_seconds = start.elapsed().as_secs_f64();
-    progress.finish();
-    Ok(out)
-}
-
-fn dispatch<E: Executor>(
-    cfg: &CouetteConfig,
-    exec: &E,
-    progress: &dyn Progress,
-) -> Result<CouetteRun> {
-    match (cfg.precision, cfg.math) {
-        (Precision::F64, MathBackend::Libm) => by_kernel::<f64, Libm, E>(cfg, exec, progress),
-        (Precision::F32, MathBackend::Libm) => by_kernel::<f32, Libm, E>(cfg, exec, progress),
-        (Precision::F32, MathBackend::Micromath) => {
-            by_kernel::<f32, Micromath, E>(cfg, exec, progress)
-        }
-        (Precision::F64, MathBackend::Micromath) => Err(Error::config(
-            "math",
-            cfg.math,
-            "micromath implements f32 only: use precision = \"f32\"",
-        )),
+    let record = crate::scene::run(&scene(cfg), progress)?;
+    if let Some(stop) = &record.stop {
+        // The Couette command reports a divergence as the core's error.
+        return Err(Error::Stopped(stop.reason.clone()));
     }
-}
-
-fn by_kernel<F: Real, M: Math<F>, E: Executor>(
-    cfg: &CouetteConfig,
-    exec: &E,
-    progress: &dyn Progress,
-) -> Result<CouetteRun> {
-    match cfg.kernel {
-        KernelName::Cubic => by_density::<F, M, CubicSpline, E>(cfg, exec, progress),
-        KernelName::Quintic => by_density::<F, M, QuinticSpline, E>(cfg, exec, progress),
-        KernelName::WendlandC2 => by_density::<F, M, WendlandC2, E>(cfg, exec, progress),
-        KernelName::WendlandC4 => by_density::<F, M, WendlandC4, E>(cfg, exec, progress),
-        KernelName::Gaussian => by_density::<F, M, Gaussian, E>(cfg, exec, progress),
-    }
-}
-
-fn by_density<F: Real, M: Math<F>, K: Kernel, E: Executor>(
-    cfg: &CouetteConfig,
-    exec: &E,
-    progress: &dyn Progress,
-) -> Result<CouetteRun> {
-    let geo = Geometry::of(cfg);
-    let mu = F::from_f64(cfg.nu * cfg.rho0);
-    let visc = match cfg.viscosity {
-        ViscosityForm::Morris => AnyViscosity::Morris(MorrisViscosity { mu }),
-        ViscosityForm::Pi => AnyViscosity::Pi(PiViscosity { mu }),
-        ViscosityForm::Artificial => AnyViscosity::Artificial(ArtificialViscosity {
-            alpha: F::from_f64(geo.alpha),
-            beta: F::ZERO,
-        }),
-    };
-    match cfg.density {
-        DensityMode::Summation => simulate::<F, M, K, E, _, _>(
-            cfg,
-            &geo,
-            exec,
-            progress,
-            SummationDensity,
-            (PressureGradient, visc),
-        ),
-        DensityMode::Continuity => simulate::<F, M, K, E, _, _>(
-            cfg,
-            &geo,
-            exec,
-            progress,
-            (),
-            (Continuity, PressureGradient, visc),
-        ),
-    }
-}
-
-fn simulate<F, M, K, E, D, T>(
-    cfg: &CouetteConfig,
-    geo: &Geometry,
-    exec: &E,
-    progress: &dyn Progress,
-    density: D,
-    forces: T,
-) -> Result<CouetteRun>
-where
-    F: Real,
-    M: Math<F>,
-    K: Kernel,
-    E: Executor,
-    D: Term<D2<F>>,
-    T: Term<D2<F>>,
-{
-    let n = cfg.particles_across;
-    let (dx, nx) = (geo.dx, geo.nx);
-    let f = F::from_f64;
-    let domain = Domain::<D2<F>>::new(
-        Vector::new([cfg.shift, geo.y_lower]),
-        Vector::new([f(nx as f64 * dx), f(cfg.gap)]),
-    )?
-    .with_periodic(0)?
-    .with_wall(1, Side::Lower, Wall::no_slip())?
-    .with_wall(
-        1,
-        Side::Upper,
-        Wall::moving(Vector::new([f(cfg.u_wall), F::ZERO])),
-    )?;
-    let h = f(geo.h);
-    let radius_rows = (K::SUPPORT * cfg.beta * (1.0 + SKIN)).ceil() as usize + 1;
-    let capacity = geo.n_fluid + 2 * nx * radius_rows;
-    let cells = Solver::<D2<F>, K, M, D, T>::cells_needed(&domain, h)?;
-    let width = crate::driver::list_width(2, K::SUPPORT, cfg.beta, SKIN);
-    let mut buffers = Buffers::<D2<F>>::new(capacity, cells).with_lists(width);
-    for j in 0..n {
-        for i in 0..nx {
-            let k = j * nx + i;
-            buffers.x[k] = Vector::new([f((i as f64 + 0.5) * dx), f((j as f64 + 0.5) * dx)]);
-            buffers.m[k] = F::ONE;
-            buffers.rho[k] = f(cfg.rho0);
-        }
-    }
-    let storage_bytes = buffers.bytes();
-    let p0 = cfg.background_pressure * cfg.rho0 * geo.c0 * geo.c0;
-    let eos = Eos::Linear {
-        rho0: f(cfg.rho0),
-        c0: f(geo.c0),
-        p0: f(p0),
-    };
-    let params = Params::new(h, eos)
-        .with_eta2(f(cfg.eta2))
-        .with_skin(f(SKIN));
-    let mut solver = Solver::<D2<F>, K, M, D, T>::new_with(
-        exec,
-        params,
-        domain,
-        buffers.storage(),
-        geo.n_fluid,
-        density,
-        forces,
-    )?;
-    solver.calibrate_mass_with(exec, f(cfg.rho0))?;
-    let limits = solver.limits();
-    let dt_max = cfg.dt_factor * limits.min();
-    let schedule = cfg.schedule();
-    let mut plan = Vec::with_capacity(schedule.len());
-    let mut last = 0.0;
-    for &t in &schedule {
-        let steps = ((t - last) / dt_max).ceil().max(1.0) as u64;
-        plan.push((t, steps, (t - last) / steps as f64));
-        last = t;
-    }
-    progress.start(plan.iter().map(|p| p.1).sum());
-    let mut profiles = Vec::with_capacity(plan.len());
-    let mut snapshots = Vec::new();
-    for (t, steps, dt) in plan {
-        for k in 0..steps {
-            solver.step_with(exec, dt)?;
-            if k % 64 == 63 {
-                progress.advance(64);
-            }
-        }
-        progress.advance(steps % 64);
-        let global: Vec<[f64; 2]> = solver
-            .positions()
+    let profiles = record
+        .frames
+        .iter()
+        .map(|f| Profile {
+            t: f.t,
+            y: f.x.iter().map(|x| x[1]).collect(),
+            vx: f.v.iter().map(|v| v[0]).collect(),
+        })
+        .collect();
+    let snapshots = if cfg.vtk {
+        record
+            .frames
             .iter()
-            .map(|x| {
-                let g = solver.domain().to_global(*x);
-                [g[0], g[1]]
+            .map(|f| Snapshot {
+                t: f.t,
+                x: f.x.iter().map(|x| [x[0], x[1]]).collect(),
+                v: f.v.iter().map(|v| [v[0], v[1]]).collect(),
+                rho: f.rho.clone(),
+                p: f.p.clone(),
             })
-            .collect();
-        let v: Vec<[f64; 2]> = solver
-            .velocities()
-            .iter()
-            .map(|v| [v[0].to_f64(), v[1].to_f64()])
-            .collect();
-        profiles.push(Profile {
-            t,
-            y: global.iter().map(|g| g[1]).collect(),
-            vx: v.iter().map(|v| v[0]).collect(),
-        });
-        if cfg.vtk {
-            snapshots.push(Snapshot {
-                t,
-                x: global,
-                v,
-                rho: solver.densities().iter().map(|r| r.to_f64()).collect(),
-                p: solver.pressures().iter().map(|p| p.to_f64()).collect(),
-            });
-        }
-    }
+            .collect()
+    } else {
+        Vec::new()
+    };
     Ok(CouetteRun {
         config: cfg.clone(),
-        geometry: *geo,
-        limits,
-        dt_max,
-        steps: solver.steps(),
-        threads: 1,
-        wall_seconds: 0.0,
-        storage_bytes,
+        geometry: Geometry::of(cfg),
+        limits: Limits {
+            cfl: record.limits[0],
+            viscous: record.limits[1],
+            force: record.limits[2],
+        },
+        dt_max: record.dt,
+        steps: record.steps,
+        threads: record.threads,
+        wall_seconds: record.wall_seconds,
+        storage_bytes: record.storage_bytes,
         profiles,
         snapshots,
     })

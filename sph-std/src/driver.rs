@@ -105,6 +105,7 @@ pub struct Buffers<S: Space> {
     cell_index: Vec<u32>,
     neighbours: Vec<u32>,
     neighbour_counts: Vec<u32>,
+    shift: Vec<S::Vector>,
 }
 
 impl<S: Space> Buffers<S> {
@@ -128,7 +129,14 @@ impl<S: Space> Buffers<S> {
             cell_index: vec![0; capacity],
             neighbours: Vec::new(),
             neighbour_counts: Vec::new(),
+            shift: Vec::new(),
         }
+    }
+
+    /// Adds the buffer particle shifting needs (see `sph_core::terms::Shifting`).
+    pub fn with_shifting(mut self) -> Self {
+        self.shift = vec![S::Vector::zero(); self.x.len()];
+        self
     }
 
     /// Adds Verlet neighbour lists of `width` entries per particle slot (see
@@ -158,6 +166,7 @@ impl<S: Space> Buffers<S> {
             cell_index: &mut self.cell_index,
             neighbours: &mut self.neighbours,
             neighbour_counts: &mut self.neighbour_counts,
+            shift: &mut self.shift,
         }
     }
 
@@ -165,6 +174,7 @@ impl<S: Space> Buffers<S> {
     pub fn bytes(&self) -> usize {
         self.x.len() * sph_core::solver::bytes_per_particle::<S>()
             + (self.cell_start.len() + self.neighbours.len() + self.neighbour_counts.len()) * 4
+            + self.shift.len() * std::mem::size_of::<S::Vector>()
     }
 }
 

@@ -26,6 +26,9 @@ pub enum Error {
     },
     /// The core refused the scene or the run diverged.
     Core(sph_core::error::Error),
+    /// A run stopped early (diverged, or its state degenerated); its
+    /// results up to then were written with `complete: false`.
+    Stopped(String),
 }
 
 /// Shorthand result type.
@@ -58,7 +61,7 @@ impl Error {
     /// the core rejects), 1 for a run that went wrong (diverged).
     pub fn exit_code(&self) -> i32 {
         match self {
-            Error::Core(sph_core::error::Error::Unstable { .. }) => 1,
+            Error::Core(sph_core::error::Error::Unstable { .. }) | Error::Stopped(_) => 1,
             _ => 2,
         }
     }
@@ -74,6 +77,9 @@ impl fmt::Display for Error {
                 source,
             } => write!(f, "cannot {action} `{}`: {source}", path.display()),
             Error::Core(e) => write!(f, "{e}"),
+            Error::Stopped(reason) => {
+                write!(f, "{reason} (results up to then written, complete: false)")
+            }
         }
     }
 }
@@ -83,7 +89,7 @@ impl std::error::Error for Error {
         match self {
             Error::Io { source, .. } => Some(source),
             Error::Core(e) => Some(e),
-            Error::Config { .. } => None,
+            Error::Config { .. } | Error::Stopped(_) => None,
         }
     }
 }

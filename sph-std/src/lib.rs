@@ -16,6 +16,7 @@
 //! ```
 
 pub mod bench;
+pub mod cases;
 pub mod config;
 pub mod couette;
 pub mod driver;
@@ -23,6 +24,8 @@ pub mod error;
 pub mod output;
 pub mod plot;
 pub mod progress;
+pub mod report;
+pub mod scene;
 pub mod studies;
 
 pub use sph_core;

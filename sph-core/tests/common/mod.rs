@@ -21,6 +21,7 @@ pub struct Buffers<S: Space> {
     cell_index: Vec<u32>,
     neighbours: Vec<u32>,
     neighbour_counts: Vec<u32>,
+    pub shift: Vec<S::Vector>,
 }
 
 impl<S: Space> Buffers<S> {
@@ -54,6 +55,7 @@ impl<S: Space> Buffers<S> {
             cell_index: vec![0; cap],
             neighbours: Vec::new(),
             neighbour_counts: Vec::new(),
+            shift: Vec::new(),
         }
     }
 
@@ -82,6 +84,7 @@ impl<S: Space> Buffers<S> {
             cell_index: &mut self.cell_index,
             neighbours: &mut self.neighbours,
             neighbour_counts: &mut self.neighbour_counts,
+            shift: &mut self.shift,
         }
     }
 }

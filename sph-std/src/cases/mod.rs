@@ -1,0 +1,384 @@
+//! The built-in cases: each a file here and one line in [`CASES`].
+//!
+//! A case turns resolved [`Settings`] into a [`Scene`]. Settings start from
+//! the case's own defaults; a scene file (`case = "NAME"` plus keys) and then
+//! command-line flags override them key by key, and the resolved settings
+//! are written back as `config.toml`, so a run can be repeated exactly.
+//!
+//! # The state monitor's defaults
+//! Closest fluid pair 0.5 dx, density deviation 5 %, Mach 0.5, checked every
+//! 50 steps (density and Mach) and at every output time (all three). On the
+//! Taylor-Green vortex without regularisation the closest pair falls to
+//! 0.03-0.3 dx while every other measure looks healthy, so the spacing bound
+//! is the one that catches clumping; 0.5 dx is far below what any built-in
+//! case reaches with its own defaults (a test runs each at CI size) and far
+//! above a collapsed state. With `c0 = 10 U` the density varies by about 1 %
+//! (Mach 0.1): 5 % and Mach 0.5 flag a run that has left the weakly
+//! compressible regime.
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::config::{check, DensityMode, KernelName, MathBackend, Precision, ViscosityForm};
+use crate::error::{Error, Result};
+use crate::scene::{Monitor, Physics, Regularise, Scene};
+
+mod cavity;
+mod couette;
+mod poiseuille;
+mod taylor_green;
+
+pub use cavity::{compare_re100, ghia_re100, shepard_velocity, Comparison, GhiaRow};
+pub use taylor_green::velocity as taylor_green_velocity;
+
+/// A built-in case.
+#[derive(Clone, Copy, Debug)]
+pub struct Case {
+    /// Name used by `sph run NAME` and `case = "NAME"`.
+    pub name: &'static str,
+    /// One line for `sph cases`.
+    pub about: &'static str,
+    /// The case's default settings.
+    pub defaults: fn() -> Settings,
+    /// Builds the scene.
+    pub build: fn(&Settings) -> Result<Scene>,
+}
+
+/// Every built-in case.
+pub const CASES: &[Case] = &[
+    couette::CASE,
+    poiseuille::CASE,
+    taylor_green::CASE,
+    cavity::CASE,
+];
+
+/// The case called `name`.
+///
+/// # Errors
+/// [`Error::Config`] naming the key `case` and listing the cases.
+pub fn find(name: &str) -> Result<&'static Case> {
+    CASES.iter().find(|c| c.name == name).ok_or_else(|| {
+        Error::config(
+            "case",
+            name,
+            format!(
+                "unknown case; the built-in cases are {}",
+                CASES.iter().map(|c| c.name).collect::<Vec<_>>().join(", ")
+            ),
+        )
+    })
+}
+
+/// Resolved settings of a run: every key has a value.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Settings {
+    /// The built-in case.
+    pub case: String,
+    /// Particles across the case's reference length.
+    pub resolution: usize,
+    /// Dimension (2; 3 where the case has a 3D form).
+    pub dim: usize,
+    /// End time in seconds.
+    pub t_end: f64,
+    /// Time between outputs in seconds.
+    pub output_interval: f64,
+    /// Reynolds number `U L / nu` (sets the viscosity).
+    pub re: f64,
+    /// Smoothing kernel.
+    pub kernel: KernelName,
+    /// `h / dx`.
+    pub beta: f64,
+    /// Viscous regulariser as a fraction of `h^2`.
+    pub eta2: f64,
+    /// Density by summation or continuity.
+    pub density: DensityMode,
+    /// Viscous form.
+    pub viscosity: ViscosityForm,
+    /// Floating-point precision.
+    pub precision: Precision,
+    /// Math backend.
+    pub math: MathBackend,
+    /// Particle regularisation.
+    pub regularise: Regularise,
+    /// Shifting coefficient `C`.
+    pub shift_coefficient: f64,
+    /// Density diffusion `delta` (continuity density only; 0: off).
+    pub density_diffusion: f64,
+    /// Time step as a fraction of the smallest stability limit.
+    pub dt_factor: f64,
+    /// `c0` as a multiple of the velocity scale.
+    pub sound_speed_factor: f64,
+    /// Background pressure as a fraction of `rho0 c0^2`.
+    pub background_pressure: f64,
+    /// Worker threads (0: all cores).
+    pub threads: usize,
+    /// Monitor: smallest closest-pair distance, in `dx`.
+    pub monitor_min_spacing: f64,
+    /// Monitor: largest `|rho/rho0 - 1|`.
+    pub monitor_max_density_deviation: f64,
+    /// Monitor: largest Mach number.
+    pub monitor_max_mach: f64,
+}
+
+impl Settings {
+    /// Settings shared by the cases, for `case` at `resolution` with the
+    /// given end time and output interval (cubic, beta 1.3, Morris,
+    /// summation, f64, no regularisation, `c0 = 10 U`).
+    pub fn base(case: &str, resolution: usize, t_end: f64, output_interval: f64, re: f64) -> Self {
+        let m = Monitor::default();
+        Self {
+            case: case.to_string(),
+            resolution,
+            dim: 2,
+            t_end,
+            output_interval,
+            re,
+            kernel: KernelName::Cubic,
+            beta: 1.3,
+            eta2: 0.01,
+            density: DensityMode::Summation,
+            viscosity: ViscosityForm::Morris,
+            precision: Precision::F64,
+            math: MathBackend::Libm,
+            regularise: Regularise::None,
+            shift_coefficient: 4.0,
+            density_diffusion: 0.1,
+            dt_factor: 0.7,
+            sound_speed_factor: 10.0,
+            background_pressure: 0.0,
+            threads: 0,
+            monitor_min_spacing: m.min_spacing,
+            monitor_max_density_deviation: m.max_density_deviation,
+            monitor_max_mach: m.max_mach,
+        }
+    }
+
+    /// The defaults of `case`, overridden by the keys of a scene file's text
+    /// (which must name the case).
+    ///
+    /// # Errors
+    /// [`Error::Config`] for a missing or unknown case, an unknown key or a
+    /// value of the wrong type.
+    pub fn from_toml(text: &str) -> Result<Self> {
+        let table: toml::Table = text
+            .parse()
+            .map_err(|e: toml::de::Error| Error::config("scene", "file", one_line(&e)))?;
+        let name = match table.get("case") {
+            Some(toml::Value::String(s)) => s.clone(),
+            Some(other) => return Err(Error::config("case", other, "must be a string")),
+            None => {
+                return Err(Error::config(
+                    "case",
+                    "(missing)",
+                    "a scene file names its built-in case: case = \"NAME\"",
+                ))
+            }
+        };
+        let case = find(&name)?;
+        let defaults = (case.defaults)();
+        let mut merged = toml::Table::try_from(&defaults)
+            .map_err(|e| Error::config("scene", "defaults", e.to_string()))?;
+        for (key, value) in table {
+            if !merged.contains_key(&key) {
+                return Err(Error::config(
+                    key,
+                    value,
+                    "unknown key (see the case's example file for the keys)",
+                ));
+            }
+            merged.insert(key, value);
+        }
+        toml::Value::Table(merged)
+            .try_into()
+            .map_err(|e: toml::de::Error| Error::config("scene", "file", one_line(&e)))
+    }
+
+    /// Reads a scene file.
+    ///
+    /// # Errors
+    /// [`Error::Io`] if it cannot be read; as [`Self::from_toml`].
+    pub fn from_file(path: &Path) -> Result<Self> {
+        let text =
+            std::fs::read_to_string(path).map_err(|e| Error::io("read scene file", path, e))?;
+        Self::from_toml(&text).map_err(|e| match e {
+            Error::Config { key, value, rule } => Error::Config {
+                key,
+                value,
+                rule: format!("{rule} (in {})", path.display()),
+            },
+            other => other,
+        })
+    }
+
+    /// The settings as TOML (the `config.toml` of a run).
+    ///
+    /// # Errors
+    /// Never for finite values; reported rather than assumed.
+    pub fn to_toml(&self) -> Result<String> {
+        toml::to_string(self).map_err(|e| Error::config("config", "toml", e.to_string()))
+    }
+
+    /// Checks the keys every case shares.
+    ///
+    /// # Errors
+    /// The first [`Error::Config`] found, naming key, value and rule.
+    pub fn validate(&self) -> Result<()> {
+        find(&self.case)?;
+        check(
+            (4..=2000).contains(&self.resolution),
+            "resolution",
+            self.resolution,
+            "must be between 4 and 2000",
+        )?;
+        check(self.dim == 2, "dim", self.dim, "the built-in cases are 2D")?;
+        check(
+            self.t_end > 0.0 && self.t_end <= 1e6,
+            "t_end",
+            self.t_end,
+            "must be positive and at most 1e6",
+        )?;
+        check(
+            self.output_interval > 0.0 && self.t_end / self.output_interval <= 10000.0,
+            "output_interval",
+            self.output_interval,
+            "must be positive, with at most 10000 outputs up to t_end",
+        )?;
+        check(
+            self.re > 0.0 && self.re <= 1e5,
+            "re",
+            self.re,
+            "must be positive and at most 1e5",
+        )?;
+        check(
+            (1.0..=3.0).contains(&self.beta),
+            "beta",
+            self.beta,
+            "must be between 1 and 3",
+        )?;
+        check(
+            (0.0..=1.0).contains(&self.eta2),
+            "eta2",
+            self.eta2,
+            "must be between 0 and 1",
+        )?;
+        check(
+            (0.0..=100.0).contains(&self.shift_coefficient),
+            "shift_coefficient",
+            self.shift_coefficient,
+            "must be between 0 and 100",
+        )?;
+        check(
+            (0.0..=1.0).contains(&self.density_diffusion),
+            "density_diffusion",
+            self.density_diffusion,
+            "must be between 0 and 1",
+        )?;
+        check(
+            self.dt_factor > 0.0 && self.dt_factor <= crate::config::MAX_DT_FACTOR,
+            "dt_factor",
+            self.dt_factor,
+            "must be in (0, 0.9]",
+        )?;
+        check(
+            (1.0..=1000.0).contains(&self.sound_speed_factor),
+            "sound_speed_factor",
+            self.sound_speed_factor,
+            "must be between 1 and 1000",
+        )?;
+        check(
+            (0.0..=1.0).contains(&self.background_pressure),
+            "background_pressure",
+            self.background_pressure,
+            "must be between 0 and 1 (fraction of rho0 c0^2)",
+        )?;
+        check(
+            self.threads <= 1024,
+            "threads",
+            self.threads,
+            "must be at most 1024",
+        )?;
+        check(
+            self.monitor_min_spacing >= 0.0 && self.monitor_min_spacing < 1.0,
+            "monitor_min_spacing",
+            self.monitor_min_spacing,
+            "must be in [0, 1) (a fraction of dx)",
+        )?;
+        check(
+            self.monitor_max_density_deviation > 0.0,
+            "monitor_max_density_deviation",
+            self.monitor_max_density_deviation,
+            "must be positive",
+        )?;
+        check(
+            self.monitor_max_mach > 0.0,
+            "monitor_max_mach",
+            self.monitor_max_mach,
+            "must be positive",
+        )?;
+        if self.math == MathBackend::Micromath && self.precision == Precision::F64 {
+            return Err(Error::config(
+                "math",
+                self.math,
+                "micromath implements f32 only: use precision = \"f32\"",
+            ));
+        }
+        Ok(())
+    }
+
+    /// Output times: every `output_interval` up to `t_end` (which is always included).
+    pub fn output_times(&self) -> Vec<f64> {
+        let k = (self.t_end / self.output_interval - 1e-9).floor() as usize;
+        let mut times: Vec<f64> = (1..=k).map(|i| i as f64 * self.output_interval).collect();
+        times.push(self.t_end);
+        times
+    }
+
+    /// The physics of these settings for a velocity scale `u` and density `rho0`.
+    pub fn physics(&self, u: f64, rho0: f64) -> Physics {
+        let c0 = self.sound_speed_factor * u;
+        Physics {
+            kernel: self.kernel,
+            beta: self.beta,
+            eta2: self.eta2,
+            density: self.density,
+            viscosity: self.viscosity,
+            precision: self.precision,
+            math: self.math,
+            regularise: self.regularise,
+            shift_coefficient: self.shift_coefficient,
+            density_diffusion: self.density_diffusion,
+            alpha: 0.0,
+            sound_speed: c0,
+            background_pressure: self.background_pressure * rho0 * c0 * c0,
+            dt_factor: self.dt_factor,
+        }
+    }
+
+    /// The monitor of these settings.
+    pub fn monitor(&self) -> Monitor {
+        Monitor {
+            min_spacing: self.monitor_min_spacing,
+            max_density_deviation: self.monitor_max_density_deviation,
+            max_mach: self.monitor_max_mach,
+            ..Monitor::default()
+        }
+    }
+}
+
+fn one_line(e: &toml::de::Error) -> String {
+    e.to_string()
+        .split_whitespace()
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+/// Builds the scene of validated settings.
+///
+/// # Errors
+/// As [`Settings::validate`] and the case's builder.
+pub fn scene(settings: &Settings) -> Result<Scene> {
+    settings.validate()?;
+    (find(&settings.case)?.build)(settings)
+}

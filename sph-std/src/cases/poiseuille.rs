@@ -1,0 +1,75 @@
+//! `poiseuille`: plane Poiseuille flow started from rest (`shared/physics.md` 6.b).
+//!
+//! Walls at `y = 0` and `y = H = 1 mm`, both at rest, a body force `F` along
+//! x from `t = 0`, periodic strip along x. Defaults: `nu = 1e-6 m^2/s`,
+//! `F = 1e-4 m/s^2`, so `u_max = F H^2 / (8 nu) = 1.25e-5 m/s` and
+//! `Re = u_max H / nu = 0.0125`; the diffusion time `H^2 / nu` is 1 s. A
+//! different `re` keeps `u_max` and sets `nu = u_max H / Re`, `F = 8 nu
+//! u_max / H^2`. Walls place their ghosts by point reflection, as in
+//! `couette`.
+
+use std::sync::Arc;
+
+use sph_core::analytic::Poiseuille;
+
+use super::{couette::strip_particles, Case, Settings};
+use crate::error::Result;
+use crate::scene::{AxisSpec, Region, Scene, WallSpec};
+
+/// The case's table entry.
+pub const CASE: Case = Case {
+    name: "poiseuille",
+    about: "plane Poiseuille flow driven by a body force, against the exact series (Re 0.0125; regularisation: none)",
+    defaults,
+    build,
+};
+
+const GAP: f64 = 1e-3;
+const U_MAX: f64 = 1.25e-5;
+const RHO0: f64 = 1000.0;
+
+fn defaults() -> Settings {
+    Settings::base("poiseuille", 40, 2.0, 0.1, U_MAX * GAP / 1e-6)
+}
+
+fn build(s: &Settings) -> Result<Scene> {
+    let dx = GAP / s.resolution as f64;
+    let nx = strip_particles(s, dx);
+    let nu = U_MAX * GAP / s.re;
+    let force = 8.0 * nu * U_MAX / (GAP * GAP);
+    let exact = Poiseuille::new(0.0, GAP, force, nu)?;
+    Ok(Scene {
+        case: s.case.clone(),
+        dim: 2,
+        origin: [0.0; 3],
+        extent: [nx as f64 * dx, GAP, 0.0],
+        axes: [
+            AxisSpec::Periodic,
+            AxisSpec::Walls(
+                Some(WallSpec::at_rest().point_reflected()),
+                Some(WallSpec::at_rest().point_reflected()),
+            ),
+            AxisSpec::Periodic,
+        ],
+        dx,
+        regions: vec![Region {
+            lo: [0.0; 3],
+            hi: [nx as f64 * dx, GAP, 0.0],
+        }],
+        velocity: None,
+        pressure: None,
+        body_force: [force, 0.0, 0.0],
+        rho0: RHO0,
+        nu,
+        physics: s.physics(U_MAX, RHO0),
+        output_times: s.output_times(),
+        velocity_scale: U_MAX,
+        length_scale: GAP,
+        exact: Some(Arc::new(move |x, t| [exact.velocity(x[1], t), 0.0, 0.0])),
+        error_decay: 0.0,
+        monitor: s.monitor(),
+        steady_tolerance: None,
+        threads: s.threads,
+        keep_particles: true,
+    })
+}

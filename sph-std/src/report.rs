@@ -1,0 +1,238 @@
+//! Outputs of any scene's run, from its [`RunRecord`]: `summary.json`,
+//! `particles.csv`, `config.toml`, `diagnostics.png` and (optionally) VTK
+//! snapshots. A new case gets all of them without code of its own.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+
+use crate::cases::Settings;
+use crate::couette::Snapshot;
+use crate::error::{Error, Result};
+use crate::output::{pvd, vtu, write_atomic};
+use crate::plot::{line_plot, Axes, Series};
+use crate::scene::{Diagnostics, Monitor, Physics, RunRecord};
+
+#[derive(Serialize)]
+struct Summary<'a> {
+    case: &'a str,
+    complete: bool,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    reason: Option<&'a str>,
+    steady: bool,
+    dim: usize,
+    velocity_scale: f64,
+    length_scale: f64,
+    dx: f64,
+    h: f64,
+    n_fluid: usize,
+    rho0: f64,
+    nu: f64,
+    reynolds: f64,
+    body_force: [f64; 3],
+    settings: Option<&'a Settings>,
+    physics: &'a Physics,
+    monitor: &'a Monitor,
+    limits: Limits,
+    dt: f64,
+    steps: u64,
+    threads: usize,
+    wall_seconds: f64,
+    storage_bytes: usize,
+    outputs: &'a [Diagnostics],
+}
+
+#[derive(Serialize)]
+struct Limits {
+    cfl: f64,
+    viscous: f64,
+    force: f64,
+}
+
+/// `summary.json` of a run (with the settings it ran with, where known).
+///
+/// # Errors
+/// Never for finite numbers; reported rather than assumed.
+pub fn summary_json(record: &RunRecord, settings: Option<&Settings>) -> Result<String> {
+    let finite = |x: f64| if x.is_finite() { x } else { f64::MAX };
+    let summary = Summary {
+        case: &record.case,
+        complete: record.complete(),
+        reason: record.stop.as_ref().map(|s| s.reason.as_str()),
+        steady: record.steady,
+        dim: record.dim,
+        velocity_scale: record.velocity_scale,
+        length_scale: record.length_scale,
+        dx: record.dx,
+        h: record.h,
+        n_fluid: record.n_fluid,
+        rho0: record.rho0,
+        nu: record.nu,
+        reynolds: record.velocity_scale * record.length_scale / record.nu,
+        body_force: record.body_force,
+        settings,
+        physics: &record.physics,
+        monitor: &record.monitor,
+        limits: Limits {
+            cfl: finite(record.limits[0]),
+            viscous: finite(record.limits[1]),
+            force: finite(record.limits[2]),
+        },
+        dt: record.dt,
+        steps: record.steps,
+        threads: record.threads,
+        wall_seconds: record.wall_seconds,
+        storage_bytes: record.storage_bytes,
+        outputs: &record.outputs,
+    };
+    let mut value = serde_json::to_value(&summary)
+        .map_err(|e| Error::config("summary", "json", e.to_string()))?;
+    // JSON has no infinity: a spacing with no pair in reach is written as null.
+    if let Some(outputs) = value.get_mut("outputs").and_then(|o| o.as_array_mut()) {
+        for (o, d) in outputs.iter_mut().zip(&record.outputs) {
+            if !d.min_spacing.is_finite() {
+                o["min_spacing"] = serde_json::Value::Null;
+            }
+        }
+    }
+    serde_json::to_string_pretty(&value)
+        .map_err(|e| Error::config("summary", "json", e.to_string()))
+}
+
+/// `particles.csv`: every fluid particle at every output time, global
+/// coordinates, `id` the index at creation, rows sorted by t then id.
+pub fn particles_csv(record: &RunRecord) -> String {
+    let mut s = String::new();
+    let three = record.dim == 3;
+    s.push_str(if three {
+        "t,id,x,y,z,vx,vy,vz,rho,p\n"
+    } else {
+        "t,id,x,y,vx,vy,rho,p\n"
+    });
+    for f in &record.frames {
+        for (id, ((x, v), (rho, p))) in f.x.iter().zip(&f.v).zip(f.rho.iter().zip(&f.p)).enumerate()
+        {
+            if three {
+                let _ = writeln!(
+                    s,
+                    "{},{id},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e}",
+                    f.t, x[0], x[1], x[2], v[0], v[1], v[2], rho, p
+                );
+            } else {
+                let _ = writeln!(
+                    s,
+                    "{},{id},{:e},{:e},{:e},{:e},{:e},{:e}",
+                    f.t, x[0], x[1], v[0], v[1], rho, p
+                );
+            }
+        }
+    }
+    s
+}
+
+/// `diagnostics.png`: kinetic energy (and its exact value), the error
+/// norms where an exact solution exists, and the closest pair, against time.
+///
+/// # Errors
+/// If drawing fails.
+pub fn diagnostics_png(record: &RunRecord) -> Result<Vec<u8>> {
+    let o = &record.outputs;
+    let e0 = o
+        .first()
+        .map_or(1.0, |d| d.kinetic_energy_exact.unwrap_or(d.kinetic_energy))
+        .max(f64::MIN_POSITIVE);
+    let mut series = vec![Series {
+        label: "kinetic energy / E(first output)".into(),
+        points: o.iter().map(|d| (d.t, d.kinetic_energy / e0)).collect(),
+        color: 0,
+        line: true,
+        markers: false,
+    }];
+    if o.iter().any(|d| d.kinetic_energy_exact.is_some()) {
+        series.push(Series {
+            label: "exact kinetic energy".into(),
+            points: o
+                .iter()
+                .filter_map(|d| d.kinetic_energy_exact.map(|k| (d.t, k / e0)))
+                .collect(),
+            color: 1,
+            line: false,
+            markers: true,
+        });
+    }
+    if o.iter().any(|d| d.linf.is_some()) {
+        series.push(Series {
+            label: "Linf velocity error".into(),
+            points: o.iter().filter_map(|d| d.linf.map(|e| (d.t, e))).collect(),
+            color: 2,
+            line: true,
+            markers: true,
+        });
+    }
+    series.push(Series {
+        label: "closest pair / dx".into(),
+        points: o
+            .iter()
+            .filter(|d| d.min_spacing.is_finite())
+            .map(|d| (d.t, d.min_spacing))
+            .collect(),
+        color: 3,
+        line: true,
+        markers: false,
+    });
+    line_plot(
+        &Axes {
+            title: format!("{}: diagnostics at the output times", record.case),
+            x: "t [s]".into(),
+            y: "value".into(),
+            log_x: false,
+            log_y: true,
+            legend: plotters::chart::SeriesLabelPosition::LowerLeft,
+        },
+        &series,
+    )
+}
+
+/// Writes every output of a run into `dir` (VTK snapshots with `vtk`,
+/// 2D only); returns the paths written.
+///
+/// # Errors
+/// [`Error::Io`] naming the file that could not be written.
+pub fn write_record(
+    record: &RunRecord,
+    settings: Option<&Settings>,
+    dir: &Path,
+    vtk: bool,
+) -> Result<Vec<PathBuf>> {
+    let mut written = Vec::new();
+    let mut put = |name: &str, bytes: &[u8]| -> Result<()> {
+        let path = dir.join(name);
+        write_atomic(&path, bytes)?;
+        written.push(path);
+        Ok(())
+    };
+    put("summary.json", summary_json(record, settings)?.as_bytes())?;
+    put("particles.csv", particles_csv(record).as_bytes())?;
+    if let Some(s) = settings {
+        put("config.toml", s.to_toml()?.as_bytes())?;
+    }
+    put("diagnostics.png", &diagnostics_png(record)?)?;
+    if vtk && record.dim == 2 {
+        let mut entries = Vec::new();
+        for (k, f) in record.frames.iter().enumerate() {
+            let snap = Snapshot {
+                t: f.t,
+                x: f.x.iter().map(|x| [x[0], x[1]]).collect(),
+                v: f.v.iter().map(|v| [v[0], v[1]]).collect(),
+                rho: f.rho.clone(),
+                p: f.p.clone(),
+            };
+            let name = format!("particles_{k:04}.vtu");
+            put(&name, vtu(&snap).as_bytes())?;
+            entries.push((f.t, name));
+        }
+        put("particles.pvd", pvd(&entries).as_bytes())?;
+    }
+    Ok(written)
+}

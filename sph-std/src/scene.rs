@@ -1,0 +1,1029 @@
+//! The scene layer: a scene is data, and one generic engine runs every scene.
+//!
+//! A [`Scene`] states the box (periodic axes and planar walls, each wall with
+//! its velocity, slip rule and ghost placement), the fluid regions filled on
+//! a lattice, the initial velocity and pressure fields, the body force, the
+//! equation of state, the physics choices ([`Physics`]), the output times,
+//! the velocity and length scales, an exact solution when there is one, and
+//! the state monitor's bounds ([`Monitor`]). [`run`] turns the run-time
+//! choices (dimension, precision and math backend, kernel, density mode,
+//! regularisation) into one monomorphised solver type, steps it to each
+//! output time, and returns a [`RunRecord`] that every output and plot reads.
+//!
+//! Adding a case is one file in `cases/` plus one line in its table; the
+//! dispatch here never changes.
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use serde::Serialize;
+use sph_core::exec::{Executor, Serial};
+use sph_core::kernel::{
+    CubicSpline, Gaussian, Kernel, QuinticSpline, SmoothingKernel, WendlandC2, WendlandC4,
+};
+use sph_core::math::{Libm, Math, Micromath};
+use sph_core::prelude::{
+    AnyViscosity, ArtificialViscosity, BodyForce, Continuity, DensityDiffusion, Domain, Eos,
+    MorrisViscosity, Params, PiViscosity, PressureGradient, Reflection, Shifting, Side, Solver,
+    SummationDensity, Term, Wall, D2, D3,
+};
+use sph_core::real::Real;
+use sph_core::space::{Space, VectorOps};
+
+use crate::config::{DensityMode, KernelName, MathBackend, Precision, ViscosityForm};
+use crate::couette::{Progress, SKIN};
+use crate::driver::{Buffers, Rayon};
+use crate::error::{Error, Result};
+
+/// A velocity field `v(x, t)` in global coordinates (unused components zero).
+pub type VectorField = Arc<dyn Fn([f64; 3], f64) -> [f64; 3] + Send + Sync>;
+/// A scalar field `p(x)` in global coordinates.
+pub type ScalarField = Arc<dyn Fn([f64; 3]) -> f64 + Send + Sync>;
+
+/// One planar wall of the box.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WallSpec {
+    /// Wall velocity (tangential only).
+    pub velocity: [f64; 3],
+    /// Free slip instead of no-slip.
+    pub free_slip: bool,
+    /// Ghost placement ([`Reflection::Point`] needs periodic tangential axes).
+    pub reflection: Reflection,
+}
+
+impl WallSpec {
+    /// A no-slip wall at rest with mirrored ghosts.
+    pub fn at_rest() -> Self {
+        Self::moving([0.0; 3])
+    }
+
+    /// A no-slip wall sliding with `velocity`, mirrored ghosts.
+    pub fn moving(velocity: [f64; 3]) -> Self {
+        Self {
+            velocity,
+            free_slip: false,
+            reflection: Reflection::Mirror,
+        }
+    }
+
+    /// The same wall with point-reflected ghosts.
+    pub fn point_reflected(mut self) -> Self {
+        self.reflection = Reflection::Point;
+        self
+    }
+}
+
+/// What bounds one axis of the box.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum AxisSpec {
+    /// Periodic.
+    Periodic,
+    /// Walls on the lower and upper side (`None`: open, a particle that
+    /// crosses it is an error).
+    Walls(Option<WallSpec>, Option<WallSpec>),
+}
+
+/// A box of fluid, filled on the scene's lattice (cell centres of spacing
+/// `dx` counted from the box origin).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Region {
+    /// Lower corner (global).
+    pub lo: [f64; 3],
+    /// Upper corner (global).
+    pub hi: [f64; 3],
+}
+
+/// Regularisation of the particle arrangement.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, serde::Deserialize)]
+pub enum Regularise {
+    /// None: particles move with the fluid velocity.
+    #[serde(rename = "none")]
+    None,
+    /// Particle shifting (`sph_core::terms::Shifting`).
+    #[serde(rename = "shifting")]
+    Shifting,
+}
+
+impl Regularise {
+    /// Every value.
+    pub const ALL: &'static [Regularise] = &[Regularise::None, Regularise::Shifting];
+
+    /// The name in configs and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Regularise::None => "none",
+            Regularise::Shifting => "shifting",
+        }
+    }
+}
+
+impl std::fmt::Display for Regularise {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for Regularise {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        Self::ALL
+            .iter()
+            .copied()
+            .find(|v| v.name() == s)
+            .ok_or_else(|| "expected one of none, shifting".to_string())
+    }
+}
+
+/// Numerical choices of a scene.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Physics {
+    /// Smoothing kernel.
+    pub kernel: KernelName,
+    /// `h / dx`.
+    pub beta: f64,
+    /// Viscous regulariser as a fraction of `h^2`.
+    pub eta2: f64,
+    /// Density mode.
+    pub density: DensityMode,
+    /// Viscous form.
+    pub viscosity: ViscosityForm,
+    /// Floating-point precision.
+    pub precision: Precision,
+    /// Math backend.
+    pub math: MathBackend,
+    /// Regularisation.
+    pub regularise: Regularise,
+    /// Shifting coefficient `C` (see `sph_core::terms::Shifting`).
+    pub shift_coefficient: f64,
+    /// Density diffusion `delta` (continuity density only; 0: off).
+    pub density_diffusion: f64,
+    /// Artificial-viscosity coefficient (used with `viscosity = artificial`).
+    pub alpha: f64,
+    /// Reference sound speed `c0` in m/s.
+    pub sound_speed: f64,
+    /// Background pressure in Pa.
+    pub background_pressure: f64,
+    /// Time step as a fraction of the smallest stability limit.
+    pub dt_factor: f64,
+}
+
+/// Bounds of the state monitor: a run whose state crosses one stops.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Monitor {
+    /// Smallest allowed distance between two fluid particles, in `dx`.
+    pub min_spacing: f64,
+    /// Largest allowed `|rho / rho0 - 1|`.
+    pub max_density_deviation: f64,
+    /// Largest allowed `|v| / c0`.
+    pub max_mach: f64,
+    /// Check every this many steps (and at every output time).
+    pub every: u64,
+}
+
+impl Default for Monitor {
+    /// Defaults chosen from the collapse they must catch (see the module
+    /// docs of `cases`): closest pair 0.5 dx, density 5 %, Mach 0.5.
+    fn default() -> Self {
+        Self {
+            min_spacing: 0.5,
+            max_density_deviation: 0.05,
+            max_mach: 0.5,
+            every: 50,
+        }
+    }
+}
+
+/// Everything a run needs.
+#[derive(Clone)]
+pub struct Scene {
+    /// Case name.
+    pub case: String,
+    /// Dimension, 2 or 3.
+    pub dim: usize,
+    /// Lower corner of the box (global).
+    pub origin: [f64; 3],
+    /// Size of the box.
+    pub extent: [f64; 3],
+    /// What bounds each axis.
+    pub axes: [AxisSpec; 3],
+    /// Particle spacing.
+    pub dx: f64,
+    /// Fluid regions.
+    pub regions: Vec<Region>,
+    /// Initial velocity `v(x, 0)` (rest if `None`).
+    pub velocity: Option<VectorField>,
+    /// Initial pressure (reference state if `None`; with summation density
+    /// the density follows the positions, so only continuity density starts
+    /// from it).
+    pub pressure: Option<ScalarField>,
+    /// Body force per unit mass.
+    pub body_force: [f64; 3],
+    /// Reference density.
+    pub rho0: f64,
+    /// Kinematic viscosity.
+    pub nu: f64,
+    /// Numerical choices.
+    pub physics: Physics,
+    /// Output times in seconds, increasing.
+    pub output_times: Vec<f64>,
+    /// Velocity scale (errors are relative to it).
+    pub velocity_scale: f64,
+    /// Length scale (gap, channel, box side, cavity side).
+    pub length_scale: f64,
+    /// Exact velocity `v(x, t)`, where one exists.
+    pub exact: Option<VectorField>,
+    /// Errors are relative to `velocity_scale * exp(error_decay * t)`
+    /// (a decaying flow's current amplitude; 0 for a fixed scale).
+    pub error_decay: f64,
+    /// State monitor.
+    pub monitor: Monitor,
+    /// Stop once the relative change of kinetic energy per `L/U` falls
+    /// below this (see [`steady`]).
+    pub steady_tolerance: Option<f64>,
+    /// Worker threads (0: all cores).
+    pub threads: usize,
+    /// Keep particle states at every output time.
+    pub keep_particles: bool,
+}
+
+/// Diagnostics at one output time.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Diagnostics {
+    /// Time in seconds.
+    pub t: f64,
+    /// `sum 1/2 m |v|^2` over fluid particles.
+    pub kinetic_energy: f64,
+    /// The same sum with the exact velocity at the particles (where there is one).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub kinetic_energy_exact: Option<f64>,
+    /// Closest fluid pair in units of `dx` (1 on the initial lattice).
+    pub min_spacing: f64,
+    /// `max |rho / rho0 - 1|`.
+    pub max_density_deviation: f64,
+    /// `max |v| / c0`.
+    pub max_mach: f64,
+    /// `max |v - v_exact|` relative to the error scale.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub linf: Option<f64>,
+    /// `sqrt(mean |v - v_exact|^2)` relative to the error scale.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub l2: Option<f64>,
+}
+
+/// Particle state at one output time (fluid only, in creation order).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Frame {
+    /// Time in seconds.
+    pub t: f64,
+    /// Positions (global).
+    pub x: Vec<[f64; 3]>,
+    /// Velocities.
+    pub v: Vec<[f64; 3]>,
+    /// Densities.
+    pub rho: Vec<f64>,
+    /// Pressures.
+    pub p: Vec<f64>,
+}
+
+/// Why a run stopped before its end time.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Stop {
+    /// Simulated time of the stop.
+    pub t: f64,
+    /// The particle at fault, where there is one.
+    pub particle: Option<usize>,
+    /// One line saying what happened.
+    pub reason: String,
+}
+
+/// What every scene's run produces; outputs and plots read only this.
+#[derive(Clone, Debug)]
+pub struct RunRecord {
+    /// Case name.
+    pub case: String,
+    /// Dimension.
+    pub dim: usize,
+    /// Numerical choices.
+    pub physics: Physics,
+    /// Monitor bounds.
+    pub monitor: Monitor,
+    /// Particle spacing.
+    pub dx: f64,
+    /// Smoothing length.
+    pub h: f64,
+    /// Fluid particles.
+    pub n_fluid: usize,
+    /// Velocity scale.
+    pub velocity_scale: f64,
+    /// Length scale.
+    pub length_scale: f64,
+    /// Reference density.
+    pub rho0: f64,
+    /// Kinematic viscosity.
+    pub nu: f64,
+    /// Body force.
+    pub body_force: [f64; 3],
+    /// Time-step limits at the start: `[cfl, viscous, force]` seconds.
+    pub limits: [f64; 3],
+    /// The step used.
+    pub dt: f64,
+    /// Steps taken.
+    pub steps: u64,
+    /// Threads used.
+    pub threads: usize,
+    /// Wall-clock seconds.
+    pub wall_seconds: f64,
+    /// Bytes of particle storage.
+    pub storage_bytes: usize,
+    /// Diagnostics at each output time reached.
+    pub outputs: Vec<Diagnostics>,
+    /// Particle states at each output time reached (with `keep_particles`).
+    pub frames: Vec<Frame>,
+    /// Why the run stopped early, if it did.
+    pub stop: Option<Stop>,
+    /// The run reached a steady state before its end time.
+    pub steady: bool,
+}
+
+impl RunRecord {
+    /// The run ended as planned (at its end time or at a steady state).
+    pub fn complete(&self) -> bool {
+        self.stop.is_none()
+    }
+}
+
+/// Runs a scene.
+///
+/// # Errors
+/// [`Error::Config`] for a scene that cannot be built; [`Error::Core`] if the
+/// core refuses it. A run that diverges or trips the monitor is not an
+/// error here: it returns a record with [`RunRecord::stop`] set.
+pub fn run(scene: &Scene, progress: &dyn Progress) -> Result<RunRecord> {
+    check_scene(scene)?;
+    let threads = crate::driver::resolve_threads(scene.threads);
+    let start = Instant::now();
+    let mut record = if threads == 1 {
+        by_dim(scene, &Serial, progress)?
+    } else {
+        let pool = crate::driver::thread_pool(threads)?;
+        let n = estimate_particles(scene);
+        let min_chunk = (n / (4 * threads)).max(64);
+        pool.install(|| by_dim(scene, &Rayon { min_chunk }, progress))?
+    };
+    progress.finish();
+    record.threads = threads;
+    record.wall_seconds = start.elapsed().as_secs_f64();
+    Ok(record)
+}
+
+fn check_scene(scene: &Scene) -> Result<()> {
+    if scene.dim != 2 && scene.dim != 3 {
+        return Err(Error::config("dim", scene.dim, "must be 2 or 3"));
+    }
+    if !(scene.dx > 0.0 && scene.dx.is_finite()) {
+        return Err(Error::config("dx", scene.dx, "must be positive and finite"));
+    }
+    if scene.output_times.is_empty() {
+        return Err(Error::config(
+            "output_times",
+            "[]",
+            "at least one output time is needed",
+        ));
+    }
+    let mut last = 0.0;
+    for &t in &scene.output_times {
+        if !(t > last && t.is_finite()) {
+            return Err(Error::config(
+                "output_times",
+                t,
+                "output times must be positive, finite and increasing",
+            ));
+        }
+        last = t;
+    }
+    if scene.physics.math == MathBackend::Micromath && scene.physics.precision == Precision::F64 {
+        return Err(Error::config(
+            "math",
+            scene.physics.math,
+            "micromath implements f32 only: use precision = \"f32\"",
+        ));
+    }
+    if scene.dim == 3 && scene.physics.math == MathBackend::Micromath {
+        return Err(Error::config(
+            "math",
+            scene.physics.math,
+            "3D scenes run with libm only",
+        ));
+    }
+    Ok(())
+}
+
+/// Lattice points of the scene's regions (global positions).
+pub fn lattice(scene: &Scene) -> Vec<[f64; 3]> {
+    let d = scene.dim;
+    let dx = scene.dx;
+    let mut counts = [1usize; 3];
+    for (a, c) in counts.iter_mut().enumerate().take(d) {
+        *c = (scene.extent[a] / dx).round().max(1.0) as usize;
+    }
+    let mut points = Vec::new();
+    for k in 0..counts[2] {
+        for j in 0..counts[1] {
+            for i in 0..counts[0] {
+                let idx = [i, j, k];
+                let mut p = [0.0; 3];
+                for a in 0..d {
+                    p[a] = scene.origin[a] + (idx[a] as f64 + 0.5) * dx;
+                }
+                let inside = scene
+                    .regions
+                    .iter()
+                    .any(|r| (0..d).all(|a| p[a] >= r.lo[a] && p[a] < r.hi[a]));
+                if inside {
+                    points.push(p);
+                }
+            }
+        }
+    }
+    points
+}
+
+fn estimate_particles(scene: &Scene) -> usize {
+    let mut n = 1.0;
+    for a in 0..scene.dim {
+        n *= scene.extent[a] / scene.dx;
+    }
+    n as usize
+}
+
+fn by_dim<E: Executor>(scene: &Scene, exec: &E, progress: &dyn Progress) -> Result<RunRecord> {
+    let p = scene.physics;
+    match (scene.dim, p.precision, p.math) {
+        (2, Precision::F64, MathBackend::Libm) => {
+            by_kernel::<D2<f64>, Libm, E>(scene, exec, progress)
+        }
+        (2, Precision::F32, MathBackend::Libm) => {
+            by_kernel::<D2<f32>, Libm, E>(scene, exec, progress)
+        }
+        (2, Precision::F32, MathBackend::Micromath) => {
+            by_kernel::<D2<f32>, Micromath, E>(scene, exec, progress)
+        }
+        (3, Precision::F64, MathBackend::Libm) => {
+            by_kernel::<D3<f64>, Libm, E>(scene, exec, progress)
+        }
+        (3, Precision::F32, MathBackend::Libm) => {
+            by_kernel::<D3<f32>, Libm, E>(scene, exec, progress)
+        }
+        _ => Err(Error::config(
+            "math",
+            p.math,
+            "this combination of dimension, precision and math backend is not built",
+        )),
+    }
+}
+
+fn by_kernel<S, M, E>(scene: &Scene, exec: &E, progress: &dyn Progress) -> Result<RunRecord>
+where
+    S: Space,
+    M: Math<S::Real>,
+    E: Executor,
+{
+    match scene.physics.kernel {
+        KernelName::Cubic => by_terms::<S, CubicSpline, M, E>(scene, exec, progress),
+        KernelName::Quintic => by_terms::<S, QuinticSpline, M, E>(scene, exec, progress),
+        KernelName::WendlandC2 => by_terms::<S, WendlandC2, M, E>(scene, exec, progress),
+        KernelName::WendlandC4 => by_terms::<S, WendlandC4, M, E>(scene, exec, progress),
+        KernelName::Gaussian => by_terms::<S, Gaussian, M, E>(scene, exec, progress),
+    }
+}
+
+/// The viscous term of a scene (a run-time choice: one predictable branch per pair).
+fn viscosity<F: Real>(scene: &Scene, h: f64) -> AnyViscosity<F> {
+    let mu = F::from_f64(scene.nu * scene.rho0);
+    match scene.physics.viscosity {
+        ViscosityForm::Morris => AnyViscosity::Morris(MorrisViscosity { mu }),
+        ViscosityForm::Pi => AnyViscosity::Pi(PiViscosity { mu }),
+        ViscosityForm::Artificial => {
+            let alpha = if scene.physics.alpha > 0.0 {
+                scene.physics.alpha
+            } else {
+                // nu = alpha h c0 / (2 (d + 2)) (physics.md 1.4).
+                2.0 * (scene.dim as f64 + 2.0) * scene.nu / (h * scene.physics.sound_speed)
+            };
+            AnyViscosity::Artificial(ArtificialViscosity {
+                alpha: F::from_f64(alpha),
+                beta: F::ZERO,
+            })
+        }
+    }
+}
+
+fn by_terms<S, K, M, E>(scene: &Scene, exec: &E, progress: &dyn Progress) -> Result<RunRecord>
+where
+    S: Space,
+    K: Kernel,
+    M: Math<S::Real>,
+    E: Executor,
+{
+    let f = S::Real::from_f64;
+    let h = scene.physics.beta * scene.dx;
+    let visc = viscosity::<S::Real>(scene, h);
+    let g = BodyForce::<S> {
+        g: S::Vector::from_fn(|a| f(scene.body_force[a])),
+    };
+    let kernel = SmoothingKernel::<S, K, M>::new(f(h))?;
+    let w_dx = kernel.w(f(scene.dx * scene.dx));
+    let shift = Shifting::new(
+        f(scene.physics.shift_coefficient),
+        f(scene.velocity_scale),
+        f(h),
+        w_dx,
+    );
+    // Continuity density always carries delta-SPH diffusion (zero by default).
+    let diffusion = DensityDiffusion {
+        delta: f(scene.physics.density_diffusion),
+    };
+    let ctx = Context {
+        scene,
+        exec,
+        progress,
+    };
+    // The shifting velocity scale follows the flow: C h max(|v|, U/100).
+    let c_h = scene.physics.shift_coefficient * h;
+    let floor = 0.01 * scene.velocity_scale;
+    let retune = move |shift: &mut Shifting<S::Real>, vmax: f64| {
+        shift.scale = S::Real::from_f64(c_h * vmax.max(floor));
+    };
+    match (scene.physics.density, scene.physics.regularise) {
+        (DensityMode::Summation, Regularise::None) => {
+            ctx.simulate::<S, K, M, _, _>(SummationDensity, (PressureGradient, visc, g), |_, _| {})
+        }
+        (DensityMode::Summation, Regularise::Shifting) => ctx.simulate::<S, K, M, _, _>(
+            SummationDensity,
+            (PressureGradient, visc, g, shift),
+            |t, v| retune(&mut t.3, v),
+        ),
+        (DensityMode::Continuity, Regularise::None) => ctx.simulate::<S, K, M, _, _>(
+            (),
+            ((Continuity, diffusion), PressureGradient, visc, g),
+            |_, _| {},
+        ),
+        (DensityMode::Continuity, Regularise::Shifting) => ctx.simulate::<S, K, M, _, _>(
+            (),
+            ((Continuity, diffusion), PressureGradient, visc, g, shift),
+            |t, v| retune(&mut t.4, v),
+        ),
+    }
+}
+
+struct Context<'a, E> {
+    scene: &'a Scene,
+    exec: &'a E,
+    progress: &'a dyn Progress,
+}
+
+fn to3<S: Space>(v: S::Global) -> [f64; 3] {
+    let mut out = [0.0; 3];
+    for (a, o) in out.iter_mut().enumerate().take(S::DIM) {
+        *o = v[a];
+    }
+    out
+}
+
+fn vec3<S: Space>(v: S::Vector) -> [f64; 3] {
+    let mut out = [0.0; 3];
+    for (a, o) in out.iter_mut().enumerate().take(S::DIM) {
+        *o = v[a].to_f64();
+    }
+    out
+}
+
+fn norm(v: [f64; 3]) -> f64 {
+    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+}
+
+impl<E: Executor> Context<'_, E> {
+    fn domain<S: Space>(&self) -> Result<Domain<S>> {
+        let s = self.scene;
+        let f = S::Real::from_f64;
+        let mut domain = Domain::<S>::new(
+            S::Global::from_fn(|a| s.origin[a]),
+            S::Vector::from_fn(|a| f(s.extent[a])),
+        )?;
+        for a in 0..S::DIM {
+            match s.axes[a] {
+                AxisSpec::Periodic => domain = domain.with_periodic(a)?,
+                AxisSpec::Walls(lower, upper) => {
+                    for (side, spec) in [(Side::Lower, lower), (Side::Upper, upper)] {
+                        let Some(w) = spec else { continue };
+                        let velocity = S::Vector::from_fn(|b| f(w.velocity[b]));
+                        let mut wall = if w.free_slip {
+                            Wall::free_slip()
+                        } else {
+                            Wall::moving(velocity)
+                        };
+                        wall.reflection = w.reflection;
+                        domain = domain.with_wall(a, side, wall)?;
+                    }
+                }
+            }
+        }
+        Ok(domain)
+    }
+
+    fn simulate<S, K, M, D, T>(
+        &self,
+        density: D,
+        forces: T,
+        retune: impl Fn(&mut T, f64),
+    ) -> Result<RunRecord>
+    where
+        S: Space,
+        K: Kernel,
+        M: Math<S::Real>,
+        D: Term<S>,
+        T: Term<S>,
+    {
+        let s = self.scene;
+        let exec = self.exec;
+        let f = S::Real::from_f64;
+        let domain = self.domain::<S>()?;
+        let points = lattice(s);
+        let n = points.len();
+        if n == 0 {
+            return Err(Error::config(
+                "regions",
+                "(empty)",
+                "the fluid regions hold no lattice point",
+            ));
+        }
+        let h = s.physics.beta * s.dx;
+        let kappa = K::SUPPORT;
+        // Ghost capacity: every wall mirrors a slab (1 + skin) R thick, plus
+        // corner images; generous, since a shortfall is a clear error.
+        let slab = (kappa * s.physics.beta * (1.0 + SKIN)).ceil() + 2.0;
+        let mut ghosts = 0usize;
+        for a in 0..S::DIM {
+            if let AxisSpec::Walls(lo, hi) = s.axes[a] {
+                let walls = lo.is_some() as usize + hi.is_some() as usize;
+                let mut face = 1.0;
+                for b in 0..S::DIM {
+                    if b != a {
+                        face *= s.extent[b] / s.dx + 2.0 * slab;
+                    }
+                }
+                ghosts += walls * (face * slab) as usize;
+            }
+        }
+        let capacity = n + 2 * ghosts;
+        let cells = Solver::<S, K, M, D, T>::cells_needed(&domain, f(h))?;
+        let width = crate::driver::list_width(S::DIM, kappa, s.physics.beta, SKIN);
+        let mut buffers = Buffers::<S>::new(capacity, cells).with_lists(width);
+        if T::SHIFTS {
+            buffers = buffers.with_shifting();
+        }
+        let continuity = D::EMPTY;
+        let c0 = s.physics.sound_speed;
+        let pb = s.physics.background_pressure;
+        let eos = Eos::Linear {
+            rho0: f(s.rho0),
+            c0: f(c0),
+            p0: f(pb),
+        };
+        let cell_volume = s.dx.powi(S::DIM as i32);
+        for (k, p) in points.iter().enumerate() {
+            let local = domain.to_local(S::Global::from_fn(|a| p[a]));
+            buffers.x[k] = local;
+            let v = s.velocity.as_ref().map_or([0.0; 3], |field| field(*p, 0.0));
+            buffers.v[k] = S::Vector::from_fn(|a| f(v[a]));
+            buffers.m[k] = f(s.rho0 * cell_volume);
+            // Continuity density starts from the initial pressure (inverse
+            // of the linear equation of state); summation ignores it.
+            let p0 = s.pressure.as_ref().map_or(0.0, |field| field(*p));
+            buffers.rho[k] = f(s.rho0 + p0 / (c0 * c0));
+        }
+        let storage_bytes = buffers.bytes();
+        let params = Params::new(f(h), eos)
+            .with_eta2(f(s.physics.eta2))
+            .with_skin(f(SKIN));
+        let mut solver = Solver::<S, K, M, D, T>::new_with(
+            exec,
+            params,
+            domain,
+            buffers.storage(),
+            n,
+            density,
+            forces,
+        )?;
+        // Masses such that summation density gives rho0 on the initial
+        // arrangement; continuity density started from a pressure field
+        // keeps the lattice mass and its densities.
+        if !continuity || s.pressure.is_none() {
+            solver.calibrate_mass_with(exec, f(s.rho0))?;
+        }
+        let limits = solver.limits();
+        // The acoustic limit with the scene's velocity scale (the state at
+        // rest does not know how fast a lid or a vortex will go).
+        let cfl = 0.25 * h / (c0 + s.velocity_scale);
+        let dt_max = s.physics.dt_factor * cfl.min(limits.viscous).min(limits.force);
+        if !(dt_max > 0.0 && dt_max.is_finite()) {
+            return Err(Error::config(
+                "dt",
+                dt_max,
+                "the time step from the stability limits must be positive and finite",
+            ));
+        }
+        let mut plan = Vec::with_capacity(s.output_times.len());
+        let mut last = 0.0;
+        for &t in &s.output_times {
+            let steps = ((t - last) / dt_max).ceil().max(1.0) as u64;
+            plan.push((t, steps, (t - last) / steps as f64));
+            last = t;
+        }
+        self.progress.start(plan.iter().map(|p| p.1).sum());
+        let mut record = RunRecord {
+            case: s.case.clone(),
+            dim: S::DIM,
+            physics: s.physics,
+            monitor: s.monitor,
+            dx: s.dx,
+            h,
+            n_fluid: n,
+            velocity_scale: s.velocity_scale,
+            length_scale: s.length_scale,
+            rho0: s.rho0,
+            nu: s.nu,
+            body_force: s.body_force,
+            limits: [cfl, limits.viscous, limits.force],
+            dt: dt_max,
+            steps: 0,
+            threads: 1,
+            wall_seconds: 0.0,
+            storage_bytes,
+            outputs: Vec::new(),
+            frames: Vec::new(),
+            stop: None,
+            steady: false,
+        };
+        let every = s.monitor.every.max(1);
+        'outputs: for (t_out, steps, dt) in plan {
+            for k in 0..steps {
+                let vmax = solver.max_speed();
+                retune(solver.forces_mut(), vmax);
+                if let Err(e) = solver.step_with(exec, dt) {
+                    let particle = match e {
+                        sph_core::error::Error::Unstable { particle, .. } => Some(particle),
+                        _ => None,
+                    };
+                    record.stop = Some(Stop {
+                        t: solver.time(),
+                        particle,
+                        reason: format!("the run diverged: {e}"),
+                    });
+                    break 'outputs;
+                }
+                if k % 64 == 63 {
+                    self.progress.advance(64);
+                }
+                if (k + 1) % every == 0 {
+                    if let Some(stop) = self.check_cheap(&solver) {
+                        record.stop = Some(stop);
+                        break 'outputs;
+                    }
+                }
+            }
+            self.progress.advance(steps % 64);
+            let diag = self.diagnostics(&solver, t_out);
+            record.outputs.push(diag);
+            if s.keep_particles {
+                record.frames.push(frame(&solver, t_out));
+            }
+            if let Some(stop) = self.check_diagnostics(&solver, &diag) {
+                record.stop = Some(stop);
+                break;
+            }
+            if let Some(tol) = s.steady_tolerance {
+                if steady(&record.outputs, tol, s.length_scale / s.velocity_scale) {
+                    record.steady = true;
+                    break;
+                }
+            }
+        }
+        record.steps = solver.steps();
+        Ok(record)
+    }
+
+    /// The O(N) checks (density and Mach) between output times.
+    fn check_cheap<S, K, M, D, T>(&self, solver: &Solver<'_, S, K, M, D, T>) -> Option<Stop>
+    where
+        S: Space,
+        K: Kernel,
+        M: Math<S::Real>,
+        D: Term<S>,
+        T: Term<S>,
+    {
+        let (dev, i_dev) = max_density_deviation(solver, self.scene.rho0);
+        let (mach, i_mach) = max_mach(solver, self.scene.physics.sound_speed);
+        self.judge(solver.time(), None, (dev, i_dev), (mach, i_mach))
+    }
+
+    fn check_diagnostics<S, K, M, D, T>(
+        &self,
+        solver: &Solver<'_, S, K, M, D, T>,
+        d: &Diagnostics,
+    ) -> Option<Stop>
+    where
+        S: Space,
+        K: Kernel,
+        M: Math<S::Real>,
+        D: Term<S>,
+        T: Term<S>,
+    {
+        let pair = solver.closest_fluid_pair();
+        let spacing = pair.map(|(i, _, r)| (r / self.scene.dx, i));
+        let (dev, i_dev) = max_density_deviation(solver, self.scene.rho0);
+        let (mach, i_mach) = max_mach(solver, self.scene.physics.sound_speed);
+        let _ = d;
+        self.judge(solver.time(), spacing, (dev, i_dev), (mach, i_mach))
+    }
+
+    fn judge(
+        &self,
+        t: f64,
+        spacing: Option<(f64, usize)>,
+        dev: (f64, usize),
+        mach: (f64, usize),
+    ) -> Option<Stop> {
+        let m = self.scene.monitor;
+        if let Some((r, i)) = spacing {
+            if r < m.min_spacing {
+                return Some(Stop {
+                    t,
+                    particle: Some(i),
+                    reason: format!(
+                        "the state degenerated at t = {t:.6e} s: particle {i} is {r:.3} dx from its closest neighbour (monitor.min_spacing = {})",
+                        m.min_spacing
+                    ),
+                });
+            }
+        }
+        if dev.0 > m.max_density_deviation {
+            return Some(Stop {
+                t,
+                particle: Some(dev.1),
+                reason: format!(
+                    "the state degenerated at t = {t:.6e} s: particle {} has |rho/rho0 - 1| = {:.3e} (monitor.max_density_deviation = {})",
+                    dev.1, dev.0, m.max_density_deviation
+                ),
+            });
+        }
+        if mach.0 > m.max_mach {
+            return Some(Stop {
+                t,
+                particle: Some(mach.1),
+                reason: format!(
+                    "the state degenerated at t = {t:.6e} s: particle {} moves at Mach {:.3} (monitor.max_mach = {})",
+                    mach.1, mach.0, m.max_mach
+                ),
+            });
+        }
+        None
+    }
+
+    fn diagnostics<S, K, M, D, T>(&self, solver: &Solver<'_, S, K, M, D, T>, t: f64) -> Diagnostics
+    where
+        S: Space,
+        K: Kernel,
+        M: Math<S::Real>,
+        D: Term<S>,
+        T: Term<S>,
+    {
+        let s = self.scene;
+        let domain = solver.domain();
+        let mut ke = 0.0;
+        let mut ke_exact = 0.0;
+        let mut linf = 0.0f64;
+        let mut sq = 0.0;
+        let scale = s.velocity_scale * (s.error_decay * t).exp();
+        for (k, (x, v)) in solver
+            .positions()
+            .iter()
+            .zip(solver.velocities())
+            .enumerate()
+        {
+            let m = solver.masses()[k].to_f64();
+            let v = vec3::<S>(*v);
+            ke += 0.5 * m * norm(v).powi(2);
+            if let Some(exact) = &s.exact {
+                let p = to3::<S>(domain.to_global(domain_wrap::<S, M>(domain, *x)));
+                let ve = exact(p, t);
+                ke_exact += 0.5 * m * norm(ve).powi(2);
+                let e = norm([v[0] - ve[0], v[1] - ve[1], v[2] - ve[2]]) / scale;
+                linf = linf.max(e);
+                sq += e * e;
+            }
+        }
+        let n = solver.n_fluid().max(1) as f64;
+        let pair = solver.closest_fluid_pair();
+        Diagnostics {
+            t,
+            kinetic_energy: ke,
+            kinetic_energy_exact: s.exact.as_ref().map(|_| ke_exact),
+            min_spacing: pair.map_or(f64::INFINITY, |(_, _, r)| r / s.dx),
+            max_density_deviation: max_density_deviation(solver, s.rho0).0,
+            max_mach: max_mach(solver, s.physics.sound_speed).0,
+            linf: s.exact.as_ref().map(|_| linf),
+            l2: s.exact.as_ref().map(|_| (sq / n).sqrt()),
+        }
+    }
+}
+
+/// Outputs averaged in each window of the steady-state test.
+pub const STEADY_WINDOW: usize = 5;
+
+/// Whether the kinetic energy has settled: the means over the last two
+/// windows of [`STEADY_WINDOW`] outputs differ by less than `tol` relative,
+/// per `time_scale` of time between the windows' centres. Windows average
+/// out the particle-scale fluctuation of the kinetic energy.
+pub fn steady(outputs: &[Diagnostics], tol: f64, time_scale: f64) -> bool {
+    let w = STEADY_WINDOW;
+    if outputs.len() < 2 * w {
+        return false;
+    }
+    let mean = |d: &[Diagnostics]| {
+        (
+            d.iter().map(|o| o.kinetic_energy).sum::<f64>() / w as f64,
+            d.iter().map(|o| o.t).sum::<f64>() / w as f64,
+        )
+    };
+    let k = outputs.len();
+    let (e1, t1) = mean(&outputs[k - w..]);
+    let (e0, t0) = mean(&outputs[k - 2 * w..k - w]);
+    let rate = (e1 - e0).abs() / e1.max(f64::MIN_POSITIVE) / (t1 - t0) * time_scale;
+    rate < tol
+}
+
+fn domain_wrap<S: Space, M: Math<S::Real>>(domain: &Domain<S>, x: S::Vector) -> S::Vector {
+    domain.wrap::<M>(x)
+}
+
+fn max_density_deviation<S, K, M, D, T>(
+    solver: &Solver<'_, S, K, M, D, T>,
+    rho0: f64,
+) -> (f64, usize)
+where
+    S: Space,
+    K: Kernel,
+    M: Math<S::Real>,
+    D: Term<S>,
+    T: Term<S>,
+{
+    let mut best = (0.0f64, 0usize);
+    for (i, r) in solver.densities().iter().enumerate() {
+        let d = (r.to_f64() / rho0 - 1.0).abs();
+        if d > best.0 || d.is_nan() {
+            best = (d, i);
+        }
+    }
+    best
+}
+
+fn max_mach<S, K, M, D, T>(solver: &Solver<'_, S, K, M, D, T>, c0: f64) -> (f64, usize)
+where
+    S: Space,
+    K: Kernel,
+    M: Math<S::Real>,
+    D: Term<S>,
+    T: Term<S>,
+{
+    let mut best = (0.0f64, 0usize);
+    for (i, v) in solver.velocities().iter().enumerate() {
+        let m = v.norm2().to_f64().sqrt() / c0;
+        if m > best.0 || m.is_nan() {
+            best = (m, i);
+        }
+    }
+    best
+}
+
+fn frame<S, K, M, D, T>(solver: &Solver<'_, S, K, M, D, T>, t: f64) -> Frame
+where
+    S: Space,
+    K: Kernel,
+    M: Math<S::Real>,
+    D: Term<S>,
+    T: Term<S>,
+{
+    let domain = solver.domain();
+    Frame {
+        t,
+        x: solver
+            .positions()
+            .iter()
+            .map(|x| to3::<S>(domain.to_global(domain_wrap::<S, M>(domain, *x))))
+            .collect(),
+        v: solver.velocities().iter().map(|v| vec3::<S>(*v)).collect(),
+        rho: solver.densities().iter().map(|r| r.to_f64()).collect(),
+        p: solver.pressures().iter().map(|p| p.to_f64()).collect(),
+    }
+}
