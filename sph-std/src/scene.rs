@@ -967,6 +967,17 @@ fn domain_wrap<S: Space, M: Math<S::Real>>(domain: &Domain<S>, x: S::Vector) -> 
     domain.wrap::<M>(x)
 }
 
+/// The largest value and its index (a NaN counts as largest).
+fn worst(values: impl Iterator<Item = f64>) -> (f64, usize) {
+    let mut best = (0.0f64, 0usize);
+    for (i, x) in values.enumerate() {
+        if x > best.0 || x.is_nan() {
+            best = (x, i);
+        }
+    }
+    best
+}
+
 fn max_density_deviation<S, K, M, D, T>(
     solver: &Solver<'_, S, K, M, D, T>,
     rho0: f64,
@@ -978,14 +989,12 @@ where
     D: Term<S>,
     T: Term<S>,
 {
-    let mut best = (0.0f64, 0usize);
-    for (i, r) in solver.densities().iter().enumerate() {
-        let d = (r.to_f64() / rho0 - 1.0).abs();
-        if d > best.0 || d.is_nan() {
-            best = (d, i);
-        }
-    }
-    best
+    worst(
+        solver
+            .densities()
+            .iter()
+            .map(|r| (r.to_f64() / rho0 - 1.0).abs()),
+    )
 }
 
 fn max_mach<S, K, M, D, T>(solver: &Solver<'_, S, K, M, D, T>, c0: f64) -> (f64, usize)
@@ -996,14 +1005,12 @@ where
     D: Term<S>,
     T: Term<S>,
 {
-    let mut best = (0.0f64, 0usize);
-    for (i, v) in solver.velocities().iter().enumerate() {
-        let m = v.norm2().to_f64().sqrt() / c0;
-        if m > best.0 || m.is_nan() {
-            best = (m, i);
-        }
-    }
-    best
+    worst(
+        solver
+            .velocities()
+            .iter()
+            .map(|v| v.norm2().to_f64().sqrt() / c0),
+    )
 }
 
 fn frame<S, K, M, D, T>(solver: &Solver<'_, S, K, M, D, T>, t: f64) -> Frame
