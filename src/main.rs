@@ -639,6 +639,9 @@ fn run_couette(args: &CouetteArgs) -> Result<()> {
 }
 
 fn main() -> ExitCode {
+    // SIGINT: a scene run stops at the next step and still writes its
+    // results (marked incomplete).
+    let _ = ctrlc::set_handler(progress::request_stop);
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
         Err(e) if !e.use_stderr() => {

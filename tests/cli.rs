@@ -280,3 +280,42 @@ fn an_unknown_case_or_key_is_one_clear_line_and_leaves_nothing() {
     assert!(!out.exists());
     let _ = std::fs::remove_file(&file);
 }
+
+#[cfg(unix)]
+#[test]
+fn sigint_stops_a_scene_run_and_publishes_what_it_computed() {
+    let out = scratch("sigint");
+    let mut child = sph()
+        .args([
+            "run",
+            "taylor-green",
+            "--quiet",
+            "--resolution",
+            "128",
+            "--threads",
+            "1",
+        ])
+        .arg("--out")
+        .arg(&out)
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Let it pass its first output times (0.05 apart, ~100 steps each).
+    std::thread::sleep(std::time::Duration::from_millis(2500));
+    let killed = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    let result = child.wait_with_output().unwrap();
+    assert_eq!(result.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&result.stderr);
+    assert!(err.contains("interrupted"), "{err}");
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["complete"], false);
+    for name in ["particles.csv", "config.toml", "diagnostics.png"] {
+        assert!(out.join(name).is_file(), "{name} missing");
+    }
+    let _ = std::fs::remove_dir_all(&out);
+}

@@ -37,6 +37,11 @@ pub trait Progress: Sync {
     fn advance(&self, steps: u64);
     /// The run is over.
     fn finish(&self);
+    /// The user asked to stop (checked between steps): the run ends early
+    /// and publishes what it computed, marked incomplete.
+    fn cancelled(&self) -> bool {
+        false
+    }
 }
 
 /// Reports nothing.

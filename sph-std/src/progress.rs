@@ -1,9 +1,20 @@
 //! A progress bar on stderr (indicatif), hidden when stderr is not a terminal
 //! or when asked to be quiet.
 
+use std::sync::atomic::{AtomicBool, Ordering};
+
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use crate::couette::Progress;
+
+/// Set by the command line's SIGINT handler ([`request_stop`]); every
+/// [`Bar`] reports it through [`Progress::cancelled`].
+static STOP: AtomicBool = AtomicBool::new(false);
+
+/// Asks running scenes to stop at the next step (safe from a signal handler).
+pub fn request_stop() {
+    STOP.store(true, Ordering::SeqCst);
+}
 
 /// An indicatif bar implementing [`Progress`].
 #[derive(Debug)]
@@ -42,5 +53,8 @@ impl Progress for Bar {
     }
     fn finish(&self) {
         self.bar.finish_and_clear();
+    }
+    fn cancelled(&self) -> bool {
+        STOP.load(Ordering::Relaxed)
     }
 }

@@ -768,6 +768,14 @@ impl<E: Executor> Context<'_, E> {
         let every = s.monitor.every.max(1);
         'outputs: for (t_out, steps, dt) in plan {
             for k in 0..steps {
+                if self.progress.cancelled() {
+                    record.stop = Some(Stop {
+                        t: solver.time(),
+                        particle: None,
+                        reason: format!("interrupted at t = {:.6e} s", solver.time()),
+                    });
+                    break 'outputs;
+                }
                 let vmax = solver.max_speed();
                 retune(solver.forces_mut(), vmax);
                 if let Err(e) = solver.step_with(exec, dt) {
