@@ -285,7 +285,7 @@ fn an_unknown_case_or_key_is_one_clear_line_and_leaves_nothing() {
 #[test]
 fn sigint_stops_a_scene_run_and_publishes_what_it_computed() {
     let out = scratch("sigint");
-    let mut child = sph()
+    let child = sph()
         .args([
             "run",
             "taylor-green",
