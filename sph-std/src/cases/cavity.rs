@@ -36,6 +36,7 @@ fn defaults() -> Settings {
 }
 
 fn build(s: &Settings) -> Result<Scene> {
+    super::only_2d(s)?;
     let dx = 1.0 / s.resolution as f64;
     let rho0 = 1.0;
     Ok(Scene {

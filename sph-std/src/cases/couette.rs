@@ -4,6 +4,7 @@
 //! periodic strip along x two support radii wide. Defaults of Morris, Fox &
 //! Zhu (1997): `H = 1 mm`, `U = 1.25e-5 m/s`, `nu = U H / Re` with
 //! `Re = 0.0125` (`nu = 1e-6 m^2/s`), `rho0 = 1000 kg/m^3`, `c0 = 10 U`.
+//! With `dim = 3` the strip is as deep as it is wide and periodic along z.
 //! Both plates place their ghosts by point reflection, so the sheared
 //! lattice continues through the walls and the linear steady profile stays
 //! an exact discrete solution while the rows slide (ARCHITECTURE.md).
@@ -44,11 +45,13 @@ fn build(s: &Settings) -> Result<Scene> {
     let nx = strip_particles(s, dx);
     let nu = U * GAP / s.re;
     let exact = Couette::new(0.0, GAP, U, nu)?;
+    // In 3D the strip is as deep as it is wide, periodic along z.
+    let depth = if s.dim == 3 { nx as f64 * dx } else { 0.0 };
     Ok(Scene {
         case: s.case.clone(),
-        dim: 2,
+        dim: s.dim,
         origin: [0.0; 3],
-        extent: [nx as f64 * dx, GAP, 0.0],
+        extent: [nx as f64 * dx, GAP, depth],
         axes: [
             AxisSpec::Periodic,
             AxisSpec::Walls(
@@ -60,7 +63,7 @@ fn build(s: &Settings) -> Result<Scene> {
         dx,
         regions: vec![Region {
             lo: [0.0; 3],
-            hi: [nx as f64 * dx, GAP, 0.0],
+            hi: [nx as f64 * dx, GAP, depth],
         }],
         velocity: None,
         pressure: None,

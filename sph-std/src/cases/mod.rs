@@ -78,7 +78,7 @@ pub struct Settings {
     pub case: String,
     /// Particles across the case's reference length.
     pub resolution: usize,
-    /// Dimension (2; 3 where the case has a 3D form).
+    /// Dimension: 2, or 3 for the channel cases (periodic along z).
     pub dim: usize,
     /// End time in seconds.
     pub t_end: f64,
@@ -232,7 +232,12 @@ impl Settings {
             self.resolution,
             "must be between 4 and 2000",
         )?;
-        check(self.dim == 2, "dim", self.dim, "the built-in cases are 2D")?;
+        check(
+            self.dim == 2 || self.dim == 3,
+            "dim",
+            self.dim,
+            "must be 2 or 3",
+        )?;
         check(
             self.t_end > 0.0 && self.t_end <= 1e6,
             "t_end",
@@ -381,4 +386,17 @@ fn one_line(e: &toml::de::Error) -> String {
 pub fn scene(settings: &Settings) -> Result<Scene> {
     settings.validate()?;
     (find(&settings.case)?.build)(settings)
+}
+
+/// The error for a 2D-only case asked for in 3D.
+pub(crate) fn only_2d(s: &Settings) -> Result<()> {
+    check(
+        s.dim == 2,
+        "dim",
+        s.dim,
+        &format!(
+            "{} is a 2D case (couette and poiseuille also run in 3D)",
+            s.case
+        ),
+    )
 }

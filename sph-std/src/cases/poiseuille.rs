@@ -38,11 +38,13 @@ fn build(s: &Settings) -> Result<Scene> {
     let nu = U_MAX * GAP / s.re;
     let force = 8.0 * nu * U_MAX / (GAP * GAP);
     let exact = Poiseuille::new(0.0, GAP, force, nu)?;
+    // In 3D the strip is as deep as it is wide, periodic along z.
+    let depth = if s.dim == 3 { nx as f64 * dx } else { 0.0 };
     Ok(Scene {
         case: s.case.clone(),
-        dim: 2,
+        dim: s.dim,
         origin: [0.0; 3],
-        extent: [nx as f64 * dx, GAP, 0.0],
+        extent: [nx as f64 * dx, GAP, depth],
         axes: [
             AxisSpec::Periodic,
             AxisSpec::Walls(
@@ -54,7 +56,7 @@ fn build(s: &Settings) -> Result<Scene> {
         dx,
         regions: vec![Region {
             lo: [0.0; 3],
-            hi: [nx as f64 * dx, GAP, 0.0],
+            hi: [nx as f64 * dx, GAP, depth],
         }],
         velocity: None,
         pressure: None,

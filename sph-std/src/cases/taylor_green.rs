@@ -45,6 +45,7 @@ pub fn velocity(x: [f64; 3], t: f64, nu: f64) -> [f64; 3] {
 }
 
 fn build(s: &Settings) -> Result<Scene> {
+    super::only_2d(s)?;
     let dx = 1.0 / s.resolution as f64;
     let nu = 1.0 / s.re;
     let rho0 = 1.0;
