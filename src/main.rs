@@ -172,7 +172,8 @@ fn run_scene(args: &RunArgs) -> Result<()> {
     let bar = progress::Bar::new(&settings.case, args.quiet);
     let (record, written) = output::in_dir(&dir, || {
         let record = sph_std::scene::run(&scene, &bar)?;
-        let written = report::write_record(&record, Some(&settings), &dir, args.vtk)?;
+        let figure = (cases::find(&settings.case)?.figure)(&scene, &record)?;
+        let written = report::write_record(&record, Some(&settings), Some(figure), &dir, args.vtk)?;
         Ok((record, written))
     })?;
     if !args.quiet {

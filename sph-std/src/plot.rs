@@ -277,3 +277,55 @@ pub fn line_plot(axes: &Axes, series: &[Series]) -> Result<Vec<u8>> {
     }
     encode_png(&buffer, w, h)
 }
+
+/// A scatter of particles coloured by speed (blue slow, red fast), for a
+/// 2D frame in the box `[x0, x1] x [y0, y1]`.
+///
+/// # Errors
+/// If drawing fails.
+pub fn speed_scatter_png(
+    frame: &crate::scene::Frame,
+    bounds: [f64; 4],
+    title: &str,
+) -> Result<Vec<u8>> {
+    ensure_font();
+    let (w, h) = (800u32, 820u32);
+    let mut buffer = vec![255u8; (w * h * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut buffer, (w, h)).into_drawing_area();
+        root.fill(&WHITE).map_err(plot_error)?;
+        let speed = |v: &[f64; 3]| (v[0] * v[0] + v[1] * v[1]).sqrt();
+        let vmax = frame
+            .v
+            .iter()
+            .map(speed)
+            .fold(0.0f64, f64::max)
+            .max(f64::MIN_POSITIVE);
+        let mut chart = ChartBuilder::on(&root)
+            .caption(
+                format!("{title} (max speed {vmax:.3e})"),
+                ("sans-serif", 20),
+            )
+            .margin(15)
+            .x_label_area_size(40)
+            .y_label_area_size(50)
+            .build_cartesian_2d(bounds[0]..bounds[1], bounds[2]..bounds[3])
+            .map_err(plot_error)?;
+        chart
+            .configure_mesh()
+            .x_desc("x")
+            .y_desc("y")
+            .label_style(("sans-serif", 14))
+            .draw()
+            .map_err(plot_error)?;
+        chart
+            .draw_series(frame.x.iter().zip(&frame.v).map(|(x, v)| {
+                let s = speed(v) / vmax;
+                let color = HSLColor(0.66 * (1.0 - s), 0.9, 0.5);
+                Circle::new((x[0], x[1]), 2, color.filled())
+            }))
+            .map_err(plot_error)?;
+        root.present().map_err(plot_error)?;
+    }
+    encode_png(&buffer, w, h)
+}

@@ -194,14 +194,15 @@ pub fn diagnostics_png(record: &RunRecord) -> Result<Vec<u8>> {
     )
 }
 
-/// Writes every output of a run into `dir` (VTK snapshots with `vtk`,
-/// 2D only); returns the paths written.
+/// Writes every output of a run into `dir` (`case.png` when the case has a
+/// figure; VTK snapshots with `vtk`, 2D only); returns the paths written.
 ///
 /// # Errors
 /// [`Error::Io`] naming the file that could not be written.
 pub fn write_record(
     record: &RunRecord,
     settings: Option<&Settings>,
+    figure: Option<Vec<u8>>,
     dir: &Path,
     vtk: bool,
 ) -> Result<Vec<PathBuf>> {
@@ -218,6 +219,9 @@ pub fn write_record(
         put("config.toml", s.to_toml()?.as_bytes())?;
     }
     put("diagnostics.png", &diagnostics_png(record)?)?;
+    if let Some(png) = figure {
+        put("case.png", &png)?;
+    }
     if vtk && record.dim == 2 {
         let mut entries = Vec::new();
         for (k, f) in record.frames.iter().enumerate() {

@@ -13,7 +13,8 @@
 
 use super::{Case, Settings};
 use crate::error::Result;
-use crate::scene::{AxisSpec, Frame, Region, Regularise, Scene, WallSpec};
+use crate::plot::{line_plot, Axes, Series};
+use crate::scene::{AxisSpec, Frame, Region, Regularise, RunRecord, Scene, WallSpec};
 
 /// The case's table entry.
 pub const CASE: Case = Case {
@@ -21,6 +22,7 @@ pub const CASE: Case = Case {
     about: "lid-driven square cavity, centre-line profiles against Ghia, Ghia & Shin 1982 (Re 100; regularisation: shifting)",
     defaults,
     build,
+    figure: figure,
 };
 
 fn defaults() -> Settings {
@@ -171,4 +173,61 @@ pub fn compare_re100(frame: &Frame, radius: f64) -> (Comparison, Comparison) {
         .filter_map(|r| shepard_velocity(frame, [r.s, 0.5], radius).map(|v| (r.s, r.value, v[1])))
         .collect();
     (u, v)
+}
+
+/// Centre-line profiles of the last output (Shepard averages within h)
+/// against Ghia's Re = 100 points.
+fn figure(_scene: &Scene, record: &RunRecord) -> Result<Vec<u8>> {
+    let (u_ref, v_ref) = ghia_re100();
+    let mut series = Vec::new();
+    if let Some(f) = record.frames.last() {
+        let samples = |line: bool| -> Vec<(f64, f64)> {
+            (1..100)
+                .filter_map(|i| {
+                    let s = i as f64 / 100.0;
+                    let at = if line { [0.5, s] } else { [s, 0.5] };
+                    shepard_velocity(f, at, record.h).map(|v| (s, if line { v[0] } else { v[1] }))
+                })
+                .collect()
+        };
+        series.push(Series {
+            label: format!("SPH u(x = 1/2, y), t = {:.1}", f.t),
+            points: samples(true),
+            color: 0,
+            line: true,
+            markers: false,
+        });
+        series.push(Series {
+            label: format!("SPH v(x, y = 1/2), t = {:.1}", f.t),
+            points: samples(false),
+            color: 1,
+            line: true,
+            markers: false,
+        });
+    }
+    series.push(Series {
+        label: "Ghia et al. u (against y)".into(),
+        points: u_ref.iter().map(|r| (r.s, r.value)).collect(),
+        color: 0,
+        line: false,
+        markers: true,
+    });
+    series.push(Series {
+        label: "Ghia et al. v (against x)".into(),
+        points: v_ref.iter().map(|r| (r.s, r.value)).collect(),
+        color: 1,
+        line: false,
+        markers: true,
+    });
+    line_plot(
+        &Axes {
+            title: "Lid-driven cavity, Re 100: centre lines".into(),
+            x: "y (for u), x (for v)".into(),
+            y: "velocity / U".into(),
+            log_x: false,
+            log_y: false,
+            legend: plotters::chart::SeriesLabelPosition::UpperLeft,
+        },
+        &series,
+    )
 }

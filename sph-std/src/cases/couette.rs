@@ -24,6 +24,7 @@ pub const CASE: Case = Case {
     about: "plane Couette flow started from rest, against the exact series (Re 0.0125; regularisation: none)",
     defaults,
     build,
+    figure: super::channel_figure,
 };
 
 const GAP: f64 = 1e-3;

@@ -22,7 +22,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::config::{check, DensityMode, KernelName, MathBackend, Precision, ViscosityForm};
 use crate::error::{Error, Result};
-use crate::scene::{Monitor, Physics, Regularise, Scene};
+use crate::plot::{line_plot, Axes, Series};
+use crate::scene::{Monitor, Physics, Regularise, RunRecord, Scene};
 
 mod cavity;
 mod couette;
@@ -43,6 +44,9 @@ pub struct Case {
     pub defaults: fn() -> Settings,
     /// Builds the scene.
     pub build: fn(&Settings) -> Result<Scene>,
+    /// The case's own figure (`case.png`): profiles or fields against the
+    /// reference, from the scene and its run.
+    pub figure: fn(&Scene, &RunRecord) -> Result<Vec<u8>>,
 }
 
 /// Every built-in case.
@@ -398,5 +402,61 @@ pub(crate) fn only_2d(s: &Settings) -> Result<()> {
             "{} is a 2D case (couette and poiseuille also run in 3D)",
             s.case
         ),
+    )
+}
+
+/// Velocity along x against height at (up to six) output times, SPH rows as
+/// markers and the exact solution as lines: the channel cases' figure.
+pub(crate) fn channel_figure(scene: &Scene, record: &RunRecord) -> Result<Vec<u8>> {
+    let u = record.velocity_scale;
+    let h = scene.extent[1];
+    let y0 = scene.origin[1];
+    // Up to six frames spread over the run, the first and the last included.
+    let n = record.frames.len();
+    let mut picks: Vec<usize> = (0..6).map(|k| k * n.saturating_sub(1) / 5).collect();
+    picks.dedup();
+    let mut series = Vec::new();
+    for (k, f) in picks
+        .iter()
+        .filter_map(|&i| record.frames.get(i))
+        .enumerate()
+    {
+        if let Some(exact) = &scene.exact {
+            series.push(Series {
+                label: format!("exact, t = {:.3} s", f.t),
+                points: (0..=100)
+                    .map(|i| {
+                        let y = y0 + h * i as f64 / 100.0;
+                        (y, exact([0.0, y, 0.0], f.t)[0] / u)
+                    })
+                    .collect(),
+                color: k,
+                line: true,
+                markers: false,
+            });
+        }
+        series.push(Series {
+            label: format!("SPH, t = {:.3} s", f.t),
+            points: f
+                .x
+                .iter()
+                .zip(&f.v)
+                .map(|(x, v)| (x[1], v[0] / u))
+                .collect(),
+            color: k,
+            line: false,
+            markers: true,
+        });
+    }
+    line_plot(
+        &Axes {
+            title: format!("{}: u / U across the channel", record.case),
+            x: "y [m]".into(),
+            y: "u / U".into(),
+            log_x: false,
+            log_y: false,
+            legend: plotters::chart::SeriesLabelPosition::UpperLeft,
+        },
+        &series,
     )
 }

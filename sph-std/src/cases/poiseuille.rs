@@ -22,6 +22,7 @@ pub const CASE: Case = Case {
     about: "plane Poiseuille flow driven by a body force, against the exact series (Re 0.0125; regularisation: none)",
     defaults,
     build,
+    figure: super::channel_figure,
 };
 
 const GAP: f64 = 1e-3;

@@ -19,7 +19,7 @@ use std::sync::Arc;
 use super::{Case, Settings};
 use crate::config::DensityMode;
 use crate::error::Result;
-use crate::scene::{AxisSpec, Region, Regularise, Scene};
+use crate::scene::{AxisSpec, Region, Regularise, RunRecord, Scene};
 
 /// The case's table entry.
 pub const CASE: Case = Case {
@@ -27,6 +27,7 @@ pub const CASE: Case = Case {
     about: "decaying Taylor-Green vortex in a periodic unit box, against the exact solution (Re 100; regularisation: shifting)",
     defaults,
     build,
+    figure: figure,
 };
 
 fn defaults() -> Settings {
@@ -78,4 +79,26 @@ fn build(s: &Settings) -> Result<Scene> {
         threads: s.threads,
         keep_particles: true,
     })
+}
+
+/// The particles at the last output, coloured by speed.
+fn figure(_scene: &Scene, record: &RunRecord) -> Result<Vec<u8>> {
+    match record.frames.last() {
+        Some(f) => crate::plot::speed_scatter_png(
+            f,
+            [0.0, 1.0, 0.0, 1.0],
+            &format!("Taylor-Green vortex at t = {:.2}", f.t),
+        ),
+        None => crate::plot::speed_scatter_png(
+            &crate::scene::Frame {
+                t: 0.0,
+                x: Vec::new(),
+                v: Vec::new(),
+                rho: Vec::new(),
+                p: Vec::new(),
+            },
+            [0.0, 1.0, 0.0, 1.0],
+            "Taylor-Green vortex (no output)",
+        ),
+    }
 }
