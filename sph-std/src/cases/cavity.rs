@@ -22,7 +22,7 @@ pub const CASE: Case = Case {
     about: "lid-driven square cavity, centre-line profiles against Ghia, Ghia & Shin 1982 (Re 100; regularisation: shifting)",
     defaults,
     build,
-    figure: figure,
+    figure,
 };
 
 fn defaults() -> Settings {

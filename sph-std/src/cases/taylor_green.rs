@@ -27,7 +27,7 @@ pub const CASE: Case = Case {
     about: "decaying Taylor-Green vortex in a periodic unit box, against the exact solution (Re 100; regularisation: shifting)",
     defaults,
     build,
-    figure: figure,
+    figure,
 };
 
 fn defaults() -> Settings {
