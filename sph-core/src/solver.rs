@@ -304,6 +304,9 @@ fn start<S: Space>(f: &Fields<'_, S>, i: usize) -> (Dest<S>, Acc<S>) {
             shift: S::Vector::zero(),
             grad_v: [S::Vector::zero(); 3],
             grad_rho: S::Vector::zero(),
+            lap_s: [S::Vector::zero(); 9],
+            lap_t: [[S::Real::ZERO; 9]; 9],
+            lap_plain: S::Vector::zero(),
         },
     )
 }

@@ -106,6 +106,13 @@ pub struct Acc<S: Space> {
     pub grad_v: [S::Vector; 3],
     /// Density gradient (shifting only).
     pub grad_rho: S::Vector,
+    /// Consistent Laplacian: right-hand sides of the local fit, one per
+    /// basis function ([`CorrectedMorrisViscosity`] only).
+    pub lap_s: [S::Vector; 9],
+    /// Consistent Laplacian: the fit's normal matrix (upper triangle used).
+    pub lap_t: [[S::Real; 9]; 9],
+    /// Corrected Laplacian: the plain Morris sum, its fallback.
+    pub lap_plain: S::Vector,
 }
 
 /// Scene constants every term may read.
@@ -383,6 +390,182 @@ impl<S: Space> Term<S> for ArtificialViscosity<S::Real> {
     }
 }
 
+/// The Voigt pair of component `a` in `dim` dimensions: the diagonal
+/// first, then the off-diagonal pairs (2D: xx, yy, xy).
+#[inline(always)]
+fn voigt(dim: usize, a: usize) -> (usize, usize) {
+    const D2: [(usize, usize); 3] = [(0, 0), (1, 1), (0, 1)];
+    const D3: [(usize, usize); 6] = [(0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)];
+    match dim {
+        1 => (0, 0),
+        2 => D2[a],
+        _ => D3[a],
+    }
+}
+
+/// Unknowns of the local quadratic fit in `dim` dimensions: the gradient
+/// and the Hessian's Voigt components.
+const fn fit_len(dim: usize) -> usize {
+    dim + dim * (dim + 1) / 2
+}
+
+/// The Morris viscous operator replaced by a consistent Laplacian: exact for
+/// quadratic velocity fields on any particle arrangement (a weighted
+/// least-squares Taylor fit, in the spirit of the second-order consistent
+/// operators of Fatehi & Manzari 2011), where the Morris operator is exact
+/// only on arrangements with symmetric, isotropic moments.
+///
+/// For destination `i` it fits `v_i - v_j = r_ij . grad v - 1/2 r_ij r_ij : H`
+/// over the neighbours in the least-squares sense, with weights
+/// `V_j (-F_ij)` (`V_j = m_j / rho_j`), and takes `(mu / rho_i) tr H` as the
+/// viscous acceleration: one neighbour pass, a `5 x 5` (3D: `9 x 9`) solve
+/// per particle. On a lattice it agrees with the Morris operator to its
+/// lattice bias; on a sheared lattice, where the Morris operator's bias
+/// depends on how far the rows have slid (what makes long channel-flow runs
+/// drift, `shared/physics.md` 10), it has none.
+///
+/// Not conservative: momentum is not exchanged pairwise. The viscous
+/// time-step estimate uses the Morris operator (the same on a lattice). A
+/// particle with too few neighbours for the fit falls back to Morris.
+#[derive(Clone, Copy, Debug)]
+pub struct CorrectedMorrisViscosity<F> {
+    /// Dynamic viscosity `mu`.
+    pub mu: F,
+}
+
+impl<S: Space> Term<S> for CorrectedMorrisViscosity<S::Real> {
+    const NEEDS_F: bool = true;
+    const VISCOUS: bool = true;
+    #[inline(always)]
+    fn pair(&self, k: &Consts<S>, _d: &Dest<S>, f: &Fields<'_, S>, p: &Pair<S>, acc: &mut Acc<S>) {
+        if p.r2 <= S::Real::ZERO {
+            return;
+        }
+        let j = p.j;
+        let vol = f.m[j] / f.rho[j];
+        // The Morris sum, the fallback.
+        let w = S::Real::TWO * vol * p.f * p.r2 / regularised(p.r2, k.eta2);
+        acc.lap_plain += p.v_ij * w;
+        // Basis of the fit in units of h: r/h, then -1/2 c r_k r_l / h^2.
+        let inv_h = S::Real::ONE / k.h;
+        let dim = S::DIM;
+        let n = fit_len(dim);
+        let mut phi = [S::Real::ZERO; 9];
+        for (a, slot) in phi.iter_mut().enumerate().take(dim) {
+            *slot = p.r_ij[a] * inv_h;
+        }
+        for a in 0..n - dim {
+            let (kk, ll) = voigt(dim, a);
+            let c = if kk == ll {
+                -S::Real::HALF
+            } else {
+                -S::Real::ONE
+            };
+            phi[dim + a] = c * phi[kk] * phi[ll];
+        }
+        let omega = -vol * p.f;
+        for a in 0..n {
+            let wa = omega * phi[a];
+            acc.lap_s[a] += p.v_ij * wa;
+            for b in a..n {
+                acc.lap_t[a][b] += wa * phi[b];
+            }
+        }
+    }
+
+    #[inline(always)]
+    fn finish(&self, k: &Consts<S>, d: &Dest<S>, acc: &mut Acc<S>) {
+        let dim = S::DIM;
+        let n = fit_len(dim);
+        let mut t = [[S::Real::ZERO; 9]; 9];
+        for a in 0..n {
+            for b in 0..n {
+                t[a][b] = if a <= b {
+                    acc.lap_t[a][b]
+                } else {
+                    acc.lap_t[b][a]
+                };
+            }
+        }
+        // The Laplacian is sum over the diagonal Hessian unknowns: solve for
+        // the row of the inverse that picks them (t is symmetric).
+        let mut pick = [S::Real::ZERO; 9];
+        for slot in pick.iter_mut().skip(dim).take(dim) {
+            *slot = S::Real::ONE;
+        }
+        let lap = if solve(&mut t, &mut pick, n) {
+            let mut sum = S::Vector::zero();
+            for (a, &c) in pick.iter().enumerate().take(n) {
+                sum += acc.lap_s[a] * c;
+            }
+            sum * (S::Real::ONE / (k.h * k.h))
+        } else {
+            acc.lap_plain
+        };
+        acc.dv += lap * (self.mu / d.rho);
+    }
+
+    /// The Morris operator (see the type docs).
+    #[inline(always)]
+    fn viscous(
+        &self,
+        k: &Consts<S>,
+        d: &Dest<S>,
+        f: &Fields<'_, S>,
+        p: &Pair<S>,
+        acc: &mut Acc<S>,
+    ) {
+        let morris = MorrisViscosity { mu: self.mu };
+        <MorrisViscosity<S::Real> as Term<S>>::viscous(&morris, k, d, f, p, acc);
+    }
+}
+
+/// Solves `t x = rhs` in place (`rhs` becomes `x`) for the leading `n x n`
+/// block by Gaussian elimination with partial pivoting; false if the matrix
+/// is singular relative to its largest entry.
+fn solve<F: Real>(t: &mut [[F; 9]; 9], rhs: &mut [F; 9], n: usize) -> bool {
+    let mut scale = F::ZERO;
+    for row in t.iter().take(n) {
+        for &x in row.iter().take(n) {
+            scale = scale.max(x.abs());
+        }
+    }
+    if !(scale > F::ZERO) {
+        return false;
+    }
+    let tiny = scale * F::from_f64(1e-10);
+    for c in 0..n {
+        let mut piv = c;
+        for r in c + 1..n {
+            if t[r][c].abs() > t[piv][c].abs() {
+                piv = r;
+            }
+        }
+        if !(t[piv][c].abs() > tiny) {
+            return false;
+        }
+        t.swap(c, piv);
+        rhs.swap(c, piv);
+        for r in c + 1..n {
+            let factor = t[r][c] / t[c][c];
+            for k in c..n {
+                let v = t[c][k];
+                t[r][k] -= factor * v;
+            }
+            let v = rhs[c];
+            rhs[r] -= factor * v;
+        }
+    }
+    for c in (0..n).rev() {
+        let mut x = rhs[c];
+        for k in c + 1..n {
+            x -= t[c][k] * rhs[k];
+        }
+        rhs[c] = x / t[c][c];
+    }
+    true
+}
+
 /// One of the three viscous forms, chosen at run time (one predictable branch
 /// per pair; a scene that knows its form at compile time names the form's own
 /// type instead).
@@ -394,6 +577,8 @@ pub enum AnyViscosity<F> {
     Pi(PiViscosity<F>),
     /// [`ArtificialViscosity`].
     Artificial(ArtificialViscosity<F>),
+    /// [`CorrectedMorrisViscosity`].
+    Corrected(CorrectedMorrisViscosity<F>),
 }
 
 impl<S: Space> Term<S> for AnyViscosity<S::Real> {
@@ -409,6 +594,15 @@ impl<S: Space> Term<S> for AnyViscosity<S::Real> {
             AnyViscosity::Artificial(t) => {
                 <ArtificialViscosity<S::Real> as Term<S>>::pair(t, k, d, f, p, acc)
             }
+            AnyViscosity::Corrected(t) => {
+                <CorrectedMorrisViscosity<S::Real> as Term<S>>::pair(t, k, d, f, p, acc)
+            }
+        }
+    }
+    #[inline(always)]
+    fn finish(&self, k: &Consts<S>, d: &Dest<S>, acc: &mut Acc<S>) {
+        if let AnyViscosity::Corrected(t) = self {
+            <CorrectedMorrisViscosity<S::Real> as Term<S>>::finish(t, k, d, acc)
         }
     }
     #[inline(always)]
@@ -427,6 +621,9 @@ impl<S: Space> Term<S> for AnyViscosity<S::Real> {
             AnyViscosity::Pi(t) => <PiViscosity<S::Real> as Term<S>>::viscous(t, k, d, f, p, acc),
             AnyViscosity::Artificial(t) => {
                 <ArtificialViscosity<S::Real> as Term<S>>::viscous(t, k, d, f, p, acc)
+            }
+            AnyViscosity::Corrected(t) => {
+                <CorrectedMorrisViscosity<S::Real> as Term<S>>::viscous(t, k, d, f, p, acc)
             }
         }
     }

@@ -92,6 +92,9 @@ named_enum!(
         Pi => "pi",
         /// Monaghan's artificial viscosity, alpha matched to nu.
         Artificial => "artificial",
+        /// A consistent Laplacian: exact for quadratic fields on any
+        /// arrangement (`sph_core::terms::CorrectedMorrisViscosity`).
+        Corrected => "corrected",
     }
 );
 

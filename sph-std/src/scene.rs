@@ -23,9 +23,9 @@ use sph_core::kernel::{
 };
 use sph_core::math::{Libm, Math, Micromath};
 use sph_core::prelude::{
-    AnyViscosity, ArtificialViscosity, BodyForce, Continuity, DensityDiffusion, Domain, Eos,
-    MorrisViscosity, Params, PiViscosity, PressureGradient, Reflection, Shifting, Side, Solver,
-    SummationDensity, Term, Wall, D2, D3,
+    AnyViscosity, ArtificialViscosity, BodyForce, Continuity, CorrectedMorrisViscosity,
+    DensityDiffusion, Domain, Eos, MorrisViscosity, Params, PiViscosity, PressureGradient,
+    Reflection, Shifting, Side, Solver, SummationDensity, Term, Wall, D2, D3,
 };
 use sph_core::real::Real;
 use sph_core::space::{Space, VectorOps};
@@ -503,6 +503,7 @@ fn viscosity<F: Real>(scene: &Scene, h: f64) -> AnyViscosity<F> {
     match scene.physics.viscosity {
         ViscosityForm::Morris => AnyViscosity::Morris(MorrisViscosity { mu }),
         ViscosityForm::Pi => AnyViscosity::Pi(PiViscosity { mu }),
+        ViscosityForm::Corrected => AnyViscosity::Corrected(CorrectedMorrisViscosity { mu }),
         ViscosityForm::Artificial => {
             let alpha = if scene.physics.alpha > 0.0 {
                 scene.physics.alpha
