@@ -467,24 +467,23 @@ impl<S: Space> Term<S> for CorrectedMorrisViscosity<S::Real> {
         for a in 0..n {
             let wa = omega * phi[a];
             acc.lap_s[a] += p.v_ij * wa;
-            for b in a..n {
-                acc.lap_t[a][b] += wa * phi[b];
+            for (t, &pb) in acc.lap_t[a][a..n].iter_mut().zip(&phi[a..n]) {
+                *t += wa * pb;
             }
         }
     }
 
     #[inline(always)]
+    // Matrix index arithmetic reads clearer than iterator chains here.
+    #[allow(clippy::needless_range_loop)]
     fn finish(&self, k: &Consts<S>, d: &Dest<S>, acc: &mut Acc<S>) {
         let dim = S::DIM;
         let n = fit_len(dim);
-        let mut t = [[S::Real::ZERO; 9]; 9];
+        let mut t = acc.lap_t;
+        // Mirror the upper triangle the pairs filled.
         for a in 0..n {
-            for b in 0..n {
-                t[a][b] = if a <= b {
-                    acc.lap_t[a][b]
-                } else {
-                    acc.lap_t[b][a]
-                };
+            for b in 0..a {
+                t[a][b] = t[b][a];
             }
         }
         // The Laplacian is sum over the diagonal Hessian unknowns: solve for
@@ -523,6 +522,7 @@ impl<S: Space> Term<S> for CorrectedMorrisViscosity<S::Real> {
 /// Solves `t x = rhs` in place (`rhs` becomes `x`) for the leading `n x n`
 /// block by Gaussian elimination with partial pivoting; false if the matrix
 /// is singular relative to its largest entry.
+#[allow(clippy::needless_range_loop)]
 fn solve<F: Real>(t: &mut [[F; 9]; 9], rhs: &mut [F; 9], n: usize) -> bool {
     let mut scale = F::ZERO;
     for row in t.iter().take(n) {
