@@ -302,11 +302,6 @@ fn start<S: Space>(f: &Fields<'_, S>, i: usize) -> (Dest<S>, Acc<S>) {
             drho: S::Real::ZERO,
             dv: S::Vector::zero(),
             shift: S::Vector::zero(),
-            grad_v: [S::Vector::zero(); 3],
-            grad_rho: S::Vector::zero(),
-            lap_s: [S::Vector::zero(); 9],
-            lap_t: [[S::Real::ZERO; 9]; 9],
-            lap_plain: S::Vector::zero(),
         },
     )
 }
@@ -355,6 +350,7 @@ impl<S: Space, K: Kernel, M: Math<S::Real>> Pass<'_, S, K, M> {
         // the compiler drops the per-field bounds checks in the pair loop.
         let f = self.fields.uniform();
         let (d, mut acc) = start::<S>(&f, i);
+        let mut fit = T::Scratch::default();
         terms.init(self.consts, &d, &mut acc);
         let xi = f.x[i];
         let radius2 = self.kernel.radius2();
@@ -363,12 +359,13 @@ impl<S: Space, K: Kernel, M: Math<S::Real>> Pass<'_, S, K, M> {
             let (j, r_ij) = self.separation(&f, xi, row[e]);
             let r2 = r_ij.norm2();
             if r2 < radius2 {
-                self.visit::<T, false>(&f, terms, &d, &mut acc, j, r_ij, r2);
+                self.visit::<T, false>(&f, terms, &d, (&mut acc, &mut fit), j, r_ij, r2);
                 row.swap(e, inside);
                 inside += 1;
             }
         }
         terms.finish(self.consts, &d, &mut acc);
+        terms.fit_finish(self.consts, &d, &fit, &mut acc);
         (acc, inside)
     }
 
@@ -380,7 +377,7 @@ impl<S: Space, K: Kernel, M: Math<S::Real>> Pass<'_, S, K, M> {
         f: &Fields<'_, S>,
         terms: &T,
         d: &Dest<S>,
-        acc: &mut Acc<S>,
+        (acc, fit): (&mut Acc<S>, &mut T::Scratch),
         j: usize,
         r_ij: S::Vector,
         r2: S::Real,
@@ -407,6 +404,7 @@ impl<S: Space, K: Kernel, M: Math<S::Real>> Pass<'_, S, K, M> {
             terms.viscous(self.consts, d, f, &pair, acc);
         } else {
             terms.pair(self.consts, d, f, &pair, acc);
+            terms.fit_pair(self.consts, d, f, &pair, fit);
         }
     }
 
@@ -447,13 +445,14 @@ impl<S: Space, K: Kernel, M: Math<S::Real>> Pass<'_, S, K, M> {
         // the compiler drops the per-field bounds checks in the pair loop.
         let f = self.fields.uniform();
         let (d, mut acc) = start::<S>(&f, i);
+        let mut fit = T::Scratch::default();
         if !VISCOUS_ONLY {
             terms.init(self.consts, &d, &mut acc);
         }
         match self.neighbours {
             Neighbours::Cells(cells) => {
                 cells.for_each_neighbour(self.grid, f.x, i, |j, r_ij, r2| {
-                    self.visit::<T, VISCOUS_ONLY>(&f, terms, &d, &mut acc, j, r_ij, r2);
+                    self.visit::<T, VISCOUS_ONLY>(&f, terms, &d, (&mut acc, &mut fit), j, r_ij, r2);
                 })
             }
             Neighbours::Lists {
@@ -476,7 +475,7 @@ impl<S: Space, K: Kernel, M: Math<S::Real>> Pass<'_, S, K, M> {
                             &f,
                             terms,
                             &d,
-                            &mut acc,
+                            (&mut acc, &mut fit),
                             j,
                             r_ij,
                             r_ij.norm2(),
@@ -488,7 +487,15 @@ impl<S: Space, K: Kernel, M: Math<S::Real>> Pass<'_, S, K, M> {
                         let (j, r_ij) = self.separation(&f, xi, entry);
                         let r2 = r_ij.norm2();
                         if r2 < radius2 {
-                            self.visit::<T, VISCOUS_ONLY>(&f, terms, &d, &mut acc, j, r_ij, r2);
+                            self.visit::<T, VISCOUS_ONLY>(
+                                &f,
+                                terms,
+                                &d,
+                                (&mut acc, &mut fit),
+                                j,
+                                r_ij,
+                                r2,
+                            );
                         }
                     }
                 }
@@ -496,6 +503,7 @@ impl<S: Space, K: Kernel, M: Math<S::Real>> Pass<'_, S, K, M> {
         }
         if !VISCOUS_ONLY {
             terms.finish(self.consts, &d, &mut acc);
+            terms.fit_finish(self.consts, &d, &fit, &mut acc);
         }
         acc
     }

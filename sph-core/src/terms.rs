@@ -102,17 +102,46 @@ pub struct Acc<S: Space> {
     pub dv: S::Vector,
     /// Shifting velocity (only groups with [`Term::SHIFTS`] write it).
     pub shift: S::Vector,
-    /// Velocity gradient, `grad_v[b] = d v / d x_b` (shifting only).
-    pub grad_v: [S::Vector; 3],
-    /// Density gradient (shifting only).
-    pub grad_rho: S::Vector,
-    /// Consistent Laplacian: right-hand sides of the local fit, one per
-    /// basis function ([`CorrectedMorrisViscosity`] only).
-    pub lap_s: [S::Vector; 9],
-    /// Consistent Laplacian: the fit's normal matrix (upper triangle used).
-    pub lap_t: [[S::Real; 9]; 9],
-    /// Corrected Laplacian: the plain Morris sum, its fallback.
-    pub lap_plain: S::Vector,
+}
+
+/// The scratch of [`Shifting`]: first-order gradients for its Taylor correction.
+#[derive(Clone, Copy, Debug)]
+pub struct Gradients<S: Space> {
+    /// Velocity gradient, `v[b] = d v / d x_b`.
+    pub v: [S::Vector; 3],
+    /// Density gradient.
+    pub rho: S::Vector,
+}
+
+impl<S: Space> Default for Gradients<S> {
+    fn default() -> Self {
+        Self {
+            v: [S::Vector::zero(); 3],
+            rho: S::Vector::zero(),
+        }
+    }
+}
+
+/// The accumulators of a local least-squares fit ([`CorrectedMorrisViscosity`]),
+/// kept apart from [`Acc`] so that groups without a fit carry none of them.
+#[derive(Clone, Copy, Debug)]
+pub struct Fit<S: Space> {
+    /// Right-hand sides of the fit, one per basis function.
+    pub s: [S::Vector; 9],
+    /// The fit's normal matrix (upper triangle used).
+    pub t: [[S::Real; 9]; 9],
+    /// The plain Morris sum, the fallback.
+    pub plain: S::Vector,
+}
+
+impl<S: Space> Default for Fit<S> {
+    fn default() -> Self {
+        Self {
+            s: [S::Vector::zero(); 9],
+            t: [[S::Real::ZERO; 9]; 9],
+            plain: S::Vector::zero(),
+        }
+    }
 }
 
 /// Scene constants every term may read.
@@ -139,6 +168,11 @@ pub trait Term<S: Space>: Copy + Send + Sync {
     /// The term writes a shifting velocity (`Acc::shift`), which the solver
     /// adds to the drift (see [`Shifting`]).
     const SHIFTS: bool = false;
+    /// Per-destination scratch a term accumulates besides [`Acc`] (`()` for
+    /// all but [`CorrectedMorrisViscosity`], whose local fit needs a
+    /// [`Fit`]); a group's scratch is the tuple of its members', so a group
+    /// without a fit carries nothing.
+    type Scratch: Copy + Default;
 
     /// Called once per destination before its neighbours.
     #[inline(always)]
@@ -161,6 +195,29 @@ pub trait Term<S: Space>: Copy + Send + Sync {
     #[inline(always)]
     fn finish(&self, _k: &Consts<S>, _d: &Dest<S>, _acc: &mut Acc<S>) {}
 
+    /// Called once per neighbour with the term's scratch.
+    #[inline(always)]
+    fn fit_pair(
+        &self,
+        _k: &Consts<S>,
+        _d: &Dest<S>,
+        _f: &Fields<'_, S>,
+        _p: &Pair<S>,
+        _scratch: &mut Self::Scratch,
+    ) {
+    }
+
+    /// Called once per destination after `finish`, with the term's scratch.
+    #[inline(always)]
+    fn fit_finish(
+        &self,
+        _k: &Consts<S>,
+        _d: &Dest<S>,
+        _scratch: &Self::Scratch,
+        _acc: &mut Acc<S>,
+    ) {
+    }
+
     /// The linear viscous part of `pair` alone (no pressure, no body force).
     #[inline(always)]
     fn viscous(
@@ -175,6 +232,7 @@ pub trait Term<S: Space>: Copy + Send + Sync {
 }
 
 impl<S: Space> Term<S> for () {
+    type Scratch = ();
     const EMPTY: bool = true;
 }
 
@@ -185,6 +243,7 @@ macro_rules! term_tuple {
             const NEEDS_F: bool = $($T::NEEDS_F)||+;
             const VISCOUS: bool = $($T::VISCOUS)||+;
             const SHIFTS: bool = $($T::SHIFTS)||+;
+            type Scratch = ($($T::Scratch,)+);
             #[inline(always)]
             fn init(&self, k: &Consts<S>, d: &Dest<S>, acc: &mut Acc<S>) {
                 $(self.$i.init(k, d, acc);)+
@@ -200,6 +259,14 @@ macro_rules! term_tuple {
             #[inline(always)]
             fn finish(&self, k: &Consts<S>, d: &Dest<S>, acc: &mut Acc<S>) {
                 $(self.$i.finish(k, d, acc);)+
+            }
+            #[inline(always)]
+            fn fit_pair(&self, k: &Consts<S>, d: &Dest<S>, f: &Fields<'_, S>, p: &Pair<S>, scratch: &mut Self::Scratch) {
+                $(self.$i.fit_pair(k, d, f, p, &mut scratch.$i);)+
+            }
+            #[inline(always)]
+            fn fit_finish(&self, k: &Consts<S>, d: &Dest<S>, scratch: &Self::Scratch, acc: &mut Acc<S>) {
+                $(self.$i.fit_finish(k, d, &scratch.$i, acc);)+
             }
         }
     };
@@ -217,6 +284,7 @@ term_tuple!(A 0, B 1, C 2, D 3, E 4, G 5);
 pub struct SummationDensity;
 
 impl<S: Space> Term<S> for SummationDensity {
+    type Scratch = ();
     const NEEDS_W: bool = true;
     #[inline(always)]
     fn pair(&self, _k: &Consts<S>, _d: &Dest<S>, f: &Fields<'_, S>, p: &Pair<S>, acc: &mut Acc<S>) {
@@ -229,6 +297,7 @@ impl<S: Space> Term<S> for SummationDensity {
 pub struct Continuity;
 
 impl<S: Space> Term<S> for Continuity {
+    type Scratch = ();
     const NEEDS_F: bool = true;
     #[inline(always)]
     fn pair(&self, _k: &Consts<S>, _d: &Dest<S>, f: &Fields<'_, S>, p: &Pair<S>, acc: &mut Acc<S>) {
@@ -243,6 +312,7 @@ impl<S: Space> Term<S> for Continuity {
 pub struct PressureGradient;
 
 impl<S: Space> Term<S> for PressureGradient {
+    type Scratch = ();
     const NEEDS_F: bool = true;
     #[inline(always)]
     fn pair(&self, _k: &Consts<S>, d: &Dest<S>, f: &Fields<'_, S>, p: &Pair<S>, acc: &mut Acc<S>) {
@@ -261,6 +331,7 @@ pub struct BodyForce<S: Space> {
 }
 
 impl<S: Space> Term<S> for BodyForce<S> {
+    type Scratch = ();
     #[inline(always)]
     fn init(&self, _k: &Consts<S>, _d: &Dest<S>, acc: &mut Acc<S>) {
         acc.dv += self.g;
@@ -285,6 +356,7 @@ pub struct MorrisViscosity<F> {
 }
 
 impl<S: Space> Term<S> for MorrisViscosity<S::Real> {
+    type Scratch = ();
     const NEEDS_F: bool = true;
     const VISCOUS: bool = true;
     #[inline(always)]
@@ -322,6 +394,7 @@ pub struct PiViscosity<F> {
 }
 
 impl<S: Space> Term<S> for PiViscosity<S::Real> {
+    type Scratch = ();
     const NEEDS_F: bool = true;
     const VISCOUS: bool = true;
     #[inline(always)]
@@ -359,6 +432,7 @@ pub struct ArtificialViscosity<F> {
 }
 
 impl<S: Space> Term<S> for ArtificialViscosity<S::Real> {
+    type Scratch = ();
     const NEEDS_F: bool = true;
     const VISCOUS: bool = true;
     #[inline(always)]
@@ -434,10 +508,18 @@ pub struct CorrectedMorrisViscosity<F> {
 }
 
 impl<S: Space> Term<S> for CorrectedMorrisViscosity<S::Real> {
+    type Scratch = Fit<S>;
     const NEEDS_F: bool = true;
     const VISCOUS: bool = true;
     #[inline(always)]
-    fn pair(&self, k: &Consts<S>, _d: &Dest<S>, f: &Fields<'_, S>, p: &Pair<S>, acc: &mut Acc<S>) {
+    fn fit_pair(
+        &self,
+        k: &Consts<S>,
+        _d: &Dest<S>,
+        f: &Fields<'_, S>,
+        p: &Pair<S>,
+        acc: &mut Fit<S>,
+    ) {
         if p.r2 <= S::Real::ZERO {
             return;
         }
@@ -445,7 +527,7 @@ impl<S: Space> Term<S> for CorrectedMorrisViscosity<S::Real> {
         let vol = f.m[j] / f.rho[j];
         // The Morris sum, the fallback.
         let w = S::Real::TWO * vol * p.f * p.r2 / regularised(p.r2, k.eta2);
-        acc.lap_plain += p.v_ij * w;
+        acc.plain += p.v_ij * w;
         // Basis of the fit in units of h: r/h, then -1/2 c r_k r_l / h^2.
         let inv_h = S::Real::ONE / k.h;
         let dim = S::DIM;
@@ -466,8 +548,8 @@ impl<S: Space> Term<S> for CorrectedMorrisViscosity<S::Real> {
         let omega = -vol * p.f;
         for a in 0..n {
             let wa = omega * phi[a];
-            acc.lap_s[a] += p.v_ij * wa;
-            for (t, &pb) in acc.lap_t[a][a..n].iter_mut().zip(&phi[a..n]) {
+            acc.s[a] += p.v_ij * wa;
+            for (t, &pb) in acc.t[a][a..n].iter_mut().zip(&phi[a..n]) {
                 *t += wa * pb;
             }
         }
@@ -476,10 +558,10 @@ impl<S: Space> Term<S> for CorrectedMorrisViscosity<S::Real> {
     #[inline(always)]
     // Matrix index arithmetic reads clearer than iterator chains here.
     #[allow(clippy::needless_range_loop)]
-    fn finish(&self, k: &Consts<S>, d: &Dest<S>, acc: &mut Acc<S>) {
+    fn fit_finish(&self, k: &Consts<S>, d: &Dest<S>, fit: &Self::Scratch, acc: &mut Acc<S>) {
         let dim = S::DIM;
         let n = fit_len(dim);
-        let mut t = acc.lap_t;
+        let mut t = fit.t;
         // Mirror the upper triangle the pairs filled.
         for a in 0..n {
             for b in 0..a {
@@ -495,11 +577,11 @@ impl<S: Space> Term<S> for CorrectedMorrisViscosity<S::Real> {
         let lap = if solve(&mut t, &mut pick, n) {
             let mut sum = S::Vector::zero();
             for (a, &c) in pick.iter().enumerate().take(n) {
-                sum += acc.lap_s[a] * c;
+                sum += fit.s[a] * c;
             }
             sum * (S::Real::ONE / (k.h * k.h))
         } else {
-            acc.lap_plain
+            fit.plain
         };
         acc.dv += lap * (self.mu / d.rho);
     }
@@ -577,11 +659,10 @@ pub enum AnyViscosity<F> {
     Pi(PiViscosity<F>),
     /// [`ArtificialViscosity`].
     Artificial(ArtificialViscosity<F>),
-    /// [`CorrectedMorrisViscosity`].
-    Corrected(CorrectedMorrisViscosity<F>),
 }
 
 impl<S: Space> Term<S> for AnyViscosity<S::Real> {
+    type Scratch = ();
     const NEEDS_F: bool = true;
     const VISCOUS: bool = true;
     #[inline(always)]
@@ -594,15 +675,6 @@ impl<S: Space> Term<S> for AnyViscosity<S::Real> {
             AnyViscosity::Artificial(t) => {
                 <ArtificialViscosity<S::Real> as Term<S>>::pair(t, k, d, f, p, acc)
             }
-            AnyViscosity::Corrected(t) => {
-                <CorrectedMorrisViscosity<S::Real> as Term<S>>::pair(t, k, d, f, p, acc)
-            }
-        }
-    }
-    #[inline(always)]
-    fn finish(&self, k: &Consts<S>, d: &Dest<S>, acc: &mut Acc<S>) {
-        if let AnyViscosity::Corrected(t) = self {
-            <CorrectedMorrisViscosity<S::Real> as Term<S>>::finish(t, k, d, acc)
         }
     }
     #[inline(always)]
@@ -621,9 +693,6 @@ impl<S: Space> Term<S> for AnyViscosity<S::Real> {
             AnyViscosity::Pi(t) => <PiViscosity<S::Real> as Term<S>>::viscous(t, k, d, f, p, acc),
             AnyViscosity::Artificial(t) => {
                 <ArtificialViscosity<S::Real> as Term<S>>::viscous(t, k, d, f, p, acc)
-            }
-            AnyViscosity::Corrected(t) => {
-                <CorrectedMorrisViscosity<S::Real> as Term<S>>::viscous(t, k, d, f, p, acc)
             }
         }
     }
@@ -674,34 +743,48 @@ impl<F: Real> Shifting<F> {
 }
 
 impl<S: Space> Term<S> for Shifting<S::Real> {
+    type Scratch = Gradients<S>;
     const NEEDS_W: bool = true;
     const NEEDS_F: bool = true;
     const SHIFTS: bool = true;
     #[inline(always)]
-    fn pair(&self, _k: &Consts<S>, d: &Dest<S>, f: &Fields<'_, S>, p: &Pair<S>, acc: &mut Acc<S>) {
+    fn pair(&self, _k: &Consts<S>, _d: &Dest<S>, f: &Fields<'_, S>, p: &Pair<S>, acc: &mut Acc<S>) {
         let j = p.j;
         let vol = f.m[j] / f.rho[j];
         let ratio = p.w * self.inv_w_dx;
         let r2 = ratio * ratio;
         let weight = S::Real::ONE + self.repulsion * r2 * r2;
         acc.shift -= p.grad * (self.scale * weight * vol);
-        // First-order gradients <grad f>_i = sum_j V_j (f_j - f_i) grad_i W_ij,
-        // for the Taylor correction of the shifted particle's values.
+    }
+
+    /// First-order gradients `<grad f>_i = sum_j V_j (f_j - f_i) grad_i W_ij`
+    /// for the Taylor correction.
+    #[inline(always)]
+    fn fit_pair(
+        &self,
+        _k: &Consts<S>,
+        d: &Dest<S>,
+        f: &Fields<'_, S>,
+        p: &Pair<S>,
+        g: &mut Self::Scratch,
+    ) {
+        let j = p.j;
+        let vol = f.m[j] / f.rho[j];
         for b in 0..S::DIM {
-            acc.grad_v[b] -= p.v_ij * (vol * p.grad[b]);
+            g.v[b] -= p.v_ij * (vol * p.grad[b]);
         }
-        acc.grad_rho += p.grad * (vol * (f.rho[j] - d.rho));
+        g.rho += p.grad * (vol * (f.rho[j] - d.rho));
     }
 
     /// A shifted particle samples the flow `u_s dt` away from where the fluid
     /// took it: its velocity and density change by `u_s . grad` per unit time
     /// (Lind et al. 2012, Taylor expansion to first order).
     #[inline(always)]
-    fn finish(&self, _k: &Consts<S>, _d: &Dest<S>, acc: &mut Acc<S>) {
+    fn fit_finish(&self, _k: &Consts<S>, _d: &Dest<S>, g: &Self::Scratch, acc: &mut Acc<S>) {
         for b in 0..S::DIM {
-            acc.dv += acc.grad_v[b] * acc.shift[b];
+            acc.dv += g.v[b] * acc.shift[b];
         }
-        acc.drho += acc.grad_rho.dot(acc.shift);
+        acc.drho += g.rho.dot(acc.shift);
     }
 }
 
@@ -722,6 +805,7 @@ pub struct DensityDiffusion<F> {
 }
 
 impl<S: Space> Term<S> for DensityDiffusion<S::Real> {
+    type Scratch = ();
     const NEEDS_F: bool = true;
     #[inline(always)]
     fn pair(&self, k: &Consts<S>, d: &Dest<S>, f: &Fields<'_, S>, p: &Pair<S>, acc: &mut Acc<S>) {

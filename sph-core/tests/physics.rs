@@ -162,6 +162,7 @@ struct PosterViscosity {
 }
 
 impl Term<D2<f64>> for PosterViscosity {
+    type Scratch = ();
     const NEEDS_F: bool = true;
     fn pair(
         &self,

@@ -503,7 +503,8 @@ fn viscosity<F: Real>(scene: &Scene, h: f64) -> AnyViscosity<F> {
     match scene.physics.viscosity {
         ViscosityForm::Morris => AnyViscosity::Morris(MorrisViscosity { mu }),
         ViscosityForm::Pi => AnyViscosity::Pi(PiViscosity { mu }),
-        ViscosityForm::Corrected => AnyViscosity::Corrected(CorrectedMorrisViscosity { mu }),
+        // Dispatched as its own type (see `by_terms`); never reached.
+        ViscosityForm::Corrected => AnyViscosity::Morris(MorrisViscosity { mu }),
         ViscosityForm::Artificial => {
             let alpha = if scene.physics.alpha > 0.0 {
                 scene.physics.alpha
@@ -526,9 +527,34 @@ where
     M: Math<S::Real>,
     E: Executor,
 {
+    // The consistent Laplacian is its own type: its accumulators would cost
+    // every other viscous form a larger per-particle state if it were a
+    // variant of the run-time enum.
+    if scene.physics.viscosity == ViscosityForm::Corrected {
+        let mu = S::Real::from_f64(scene.nu * scene.rho0);
+        by_regularisation::<S, K, M, E, _>(scene, exec, progress, CorrectedMorrisViscosity { mu })
+    } else {
+        let h = scene.physics.beta * scene.dx;
+        let visc = viscosity::<S::Real>(scene, h);
+        by_regularisation::<S, K, M, E, _>(scene, exec, progress, visc)
+    }
+}
+
+fn by_regularisation<S, K, M, E, V>(
+    scene: &Scene,
+    exec: &E,
+    progress: &dyn Progress,
+    visc: V,
+) -> Result<RunRecord>
+where
+    S: Space,
+    K: Kernel,
+    M: Math<S::Real>,
+    E: Executor,
+    V: Term<S>,
+{
     let f = S::Real::from_f64;
     let h = scene.physics.beta * scene.dx;
-    let visc = viscosity::<S::Real>(scene, h);
     let g = BodyForce::<S> {
         g: S::Vector::from_fn(|a| f(scene.body_force[a])),
     };
