@@ -51,45 +51,64 @@ pub(crate) fn strip_particles(settings: &Settings, dx: f64) -> usize {
     (2.0 * radius / dx).floor() as usize + 1
 }
 
-fn build(s: &Settings) -> Result<Scene> {
-    let dx = GAP / s.resolution as f64;
+/// A channel between point-reflecting walls at `y = 0` and `y = gap` (the
+/// upper one sliding at `u_wall`), periodic along x (and z in 3D, as deep as
+/// wide), fluid at rest, with body force `force` along x, viscosity `nu`,
+/// density `rho0`, velocity scale `u` and the exact `u(y, t)`.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn channel(
+    s: &Settings,
+    gap: f64,
+    u_wall: f64,
+    force: f64,
+    nu: f64,
+    rho0: f64,
+    u: f64,
+    exact: impl Fn(f64, f64) -> f64 + Send + Sync + 'static,
+) -> Scene {
+    let dx = gap / s.resolution as f64;
     let nx = strip_particles(s, dx);
-    let nu = U * GAP / s.re;
-    let exact = Couette::new(0.0, GAP, U, nu)?;
-    // In 3D the strip is as deep as it is wide, periodic along z.
     let depth = if s.dim == 3 { nx as f64 * dx } else { 0.0 };
-    Ok(Scene {
+    Scene {
         case: s.case.clone(),
         dim: s.dim,
         origin: [0.0; 3],
-        extent: [nx as f64 * dx, GAP, depth],
+        extent: [nx as f64 * dx, gap, depth],
         axes: [
             AxisSpec::Periodic,
             AxisSpec::Walls(
                 Some(WallSpec::at_rest().point_reflected()),
-                Some(WallSpec::moving([U, 0.0, 0.0]).point_reflected()),
+                Some(WallSpec::moving([u_wall, 0.0, 0.0]).point_reflected()),
             ),
             AxisSpec::Periodic,
         ],
         dx,
         regions: vec![Region {
             lo: [0.0; 3],
-            hi: [nx as f64 * dx, GAP, depth],
+            hi: [nx as f64 * dx, gap, depth],
         }],
         velocity: None,
         pressure: None,
-        body_force: [0.0; 3],
-        rho0: RHO0,
+        body_force: [force, 0.0, 0.0],
+        rho0,
         nu,
-        physics: s.physics(U, RHO0),
+        physics: s.physics(u, rho0),
         output_times: s.output_times(),
-        velocity_scale: U,
-        length_scale: GAP,
-        exact: Some(Arc::new(move |x, t| [exact.velocity(x[1], t), 0.0, 0.0])),
+        velocity_scale: u,
+        length_scale: gap,
+        exact: Some(Arc::new(move |x, t| [exact(x[1], t), 0.0, 0.0])),
         error_decay: 0.0,
         monitor: s.monitor(),
         steady_tolerance: None,
         threads: s.threads,
         keep_particles: true,
-    })
+    }
+}
+
+fn build(s: &Settings) -> Result<Scene> {
+    let nu = U * GAP / s.re;
+    let exact = Couette::new(0.0, GAP, U, nu)?;
+    Ok(channel(s, GAP, U, 0.0, nu, RHO0, U, move |y, t| {
+        exact.velocity(y, t)
+    }))
 }

@@ -8,13 +8,11 @@
 //! u_max / H^2`. Walls place their ghosts by point reflection, as in
 //! `couette`.
 
-use std::sync::Arc;
-
 use sph_core::analytic::Poiseuille;
 
-use super::{couette::strip_particles, Case, Settings};
+use super::{couette::channel, Case, Settings};
 use crate::error::Result;
-use crate::scene::{AxisSpec, Region, Scene, WallSpec};
+use crate::scene::Scene;
 
 /// The case's table entry.
 pub const CASE: Case = Case {
@@ -34,45 +32,10 @@ fn defaults() -> Settings {
 }
 
 fn build(s: &Settings) -> Result<Scene> {
-    let dx = GAP / s.resolution as f64;
-    let nx = strip_particles(s, dx);
     let nu = U_MAX * GAP / s.re;
     let force = 8.0 * nu * U_MAX / (GAP * GAP);
     let exact = Poiseuille::new(0.0, GAP, force, nu)?;
-    // In 3D the strip is as deep as it is wide, periodic along z.
-    let depth = if s.dim == 3 { nx as f64 * dx } else { 0.0 };
-    Ok(Scene {
-        case: s.case.clone(),
-        dim: s.dim,
-        origin: [0.0; 3],
-        extent: [nx as f64 * dx, GAP, depth],
-        axes: [
-            AxisSpec::Periodic,
-            AxisSpec::Walls(
-                Some(WallSpec::at_rest().point_reflected()),
-                Some(WallSpec::at_rest().point_reflected()),
-            ),
-            AxisSpec::Periodic,
-        ],
-        dx,
-        regions: vec![Region {
-            lo: [0.0; 3],
-            hi: [nx as f64 * dx, GAP, depth],
-        }],
-        velocity: None,
-        pressure: None,
-        body_force: [force, 0.0, 0.0],
-        rho0: RHO0,
-        nu,
-        physics: s.physics(U_MAX, RHO0),
-        output_times: s.output_times(),
-        velocity_scale: U_MAX,
-        length_scale: GAP,
-        exact: Some(Arc::new(move |x, t| [exact.velocity(x[1], t), 0.0, 0.0])),
-        error_decay: 0.0,
-        monitor: s.monitor(),
-        steady_tolerance: None,
-        threads: s.threads,
-        keep_particles: true,
-    })
+    Ok(channel(s, GAP, 0.0, force, nu, RHO0, U_MAX, move |y, t| {
+        exact.velocity(y, t)
+    }))
 }
