@@ -256,6 +256,8 @@ fn qemu() -> Result<(), String> {
             .args([
                 "run",
                 "--quiet",
+                "-p",
+                "sph-core",
                 "--release",
                 "--example",
                 "firmware_host",

@@ -1,5 +1,5 @@
 //! The firmware's Couette case, shared word for word with the host example
-//! `examples/firmware_host.rs`, so that the emulated Cortex-M and the host
+//! `sph-core/examples/firmware_host.rs`, so that the emulated Cortex-M and the host
 //! run the same code on the same data and can be compared bit for bit.
 //!
 //! 16 particles across a 1 mm gap, 6 along a periodic strip, cubic spline at

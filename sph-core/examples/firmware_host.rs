@@ -1,12 +1,13 @@
 //! The firmware's Couette case (`examples/firmware/src/scene.rs`) run on the
 //! host, for comparison with the emulated Cortex-M bit for bit:
-//! `cargo run --release --example firmware_host -- [libm|micromath]`.
+//! `cargo run -p sph-core --release --example firmware_host -- [libm|micromath]`
+//! (an example of sph-core, so that it builds without the std frontend).
 
-#[path = "firmware/src/scene.rs"]
+#[path = "../../examples/firmware/src/scene.rs"]
 #[allow(dead_code)]
 mod scene;
 
-use sph::core::math::{Libm, Micromath};
+use sph_core::math::{Libm, Micromath};
 
 fn main() -> std::process::ExitCode {
     let backend = std::env::args().nth(1).unwrap_or_else(|| "libm".into());
