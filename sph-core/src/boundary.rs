@@ -146,6 +146,30 @@ pub fn mirror_velocity<S: Space>(
     v
 }
 
+/// The curvature part of the ghost velocity for a source at `x` across the
+/// walls in `mirrors`: `curvature d^2` per wall, `d` the source's distance
+/// from it (see [`crate::domain::Wall::curvature`]).
+#[inline]
+pub fn curvature_correction<S: Space>(domain: &Domain<S>, x: S::Vector, mirrors: u8) -> S::Vector {
+    let mut dv = S::Vector::zero();
+    let extent = domain.extent();
+    for a in 0..S::DIM {
+        for (bit, side) in [(2 * a, Side::Lower), (2 * a + 1, Side::Upper)] {
+            if mirrors & (1 << bit) == 0 {
+                continue;
+            }
+            if let Some(w) = domain.wall(a, side) {
+                let d = match side {
+                    Side::Lower => x[a],
+                    Side::Upper => extent[a] - x[a],
+                };
+                dv += w.curvature * (d * d);
+            }
+        }
+    }
+    dv
+}
+
 /// Writes the ghosts of the fluid particles `x[..n_fluid]` into
 /// `x[n_fluid..]` and `ghosts[..]`, and returns how many there are.
 ///
@@ -247,6 +271,42 @@ mod tests {
             mirror_position(&d, V2::new([0.1, 0.05]), 0b0101),
             V2::new([-0.1, -0.05])
         );
+    }
+
+    #[test]
+    fn a_curved_wall_continues_a_quadratic_profile_exactly() {
+        // u(n) = a n + (c/2) n^2 near a wall at rest: the ghost at -d must
+        // carry u(-d) = -a d + (c/2) d^2, which is -u(d) + c d^2.
+        let (a, c) = (0.7, -3.0);
+        let d = Domain::<D2<f64>>::new(V2::new([0.0, 0.0]), V2::new([1.0, 1.0]))
+            .unwrap()
+            .with_periodic(0)
+            .unwrap()
+            .with_wall(
+                1,
+                Side::Lower,
+                Wall::no_slip().with_curvature(V2::new([c, 0.0])),
+            )
+            .unwrap();
+        let dist = 0.05;
+        let u = |n: f64| a * n + 0.5 * c * n * n;
+        let x = V2::new([0.3, dist]);
+        let v = V2::new([u(dist), 0.0]);
+        let ghost = mirror_velocity(&d, v, 0b0100, false) + curvature_correction(&d, x, 0b0100);
+        assert!(
+            (ghost[0] - u(-dist)).abs() < 1e-15,
+            "{} vs {}",
+            ghost[0],
+            u(-dist)
+        );
+        // A normal curvature is refused.
+        assert!(d
+            .with_wall(
+                1,
+                Side::Upper,
+                Wall::no_slip().with_curvature(V2::new([0.0, 1.0]))
+            )
+            .is_err());
     }
 
     #[test]

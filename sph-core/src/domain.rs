@@ -69,6 +69,15 @@ pub struct Wall<S: Space> {
     pub velocity: S::Vector,
     /// Ghost placement.
     pub reflection: Reflection,
+    /// Curvature of the tangential velocity at the wall, `d^2 v_t / d n^2`
+    /// (zero: the ghost rule continues the profile linearly). The ghost of a
+    /// particle at distance `d` gets `2 V_w - v + curvature d^2`, the odd
+    /// continuation of `v_t = a n + (curvature / 2) n^2` through the wall:
+    /// exact for quadratic profiles, where the plain rule leaves a slip of
+    /// order `curvature d^2`. At a wall at rest without a tangential pressure
+    /// gradient the momentum equation gives `curvature = -g_t / nu` (body
+    /// force `g`), at every time.
+    pub curvature: S::Vector,
 }
 
 impl<S: Space> Wall<S> {
@@ -78,6 +87,7 @@ impl<S: Space> Wall<S> {
             kind: WallKind::NoSlip,
             velocity: S::Vector::zero(),
             reflection: Reflection::Mirror,
+            curvature: S::Vector::zero(),
         }
     }
 
@@ -87,6 +97,7 @@ impl<S: Space> Wall<S> {
             kind: WallKind::NoSlip,
             velocity,
             reflection: Reflection::Mirror,
+            curvature: S::Vector::zero(),
         }
     }
 
@@ -96,7 +107,14 @@ impl<S: Space> Wall<S> {
             kind: WallKind::FreeSlip,
             velocity: S::Vector::zero(),
             reflection: Reflection::Mirror,
+            curvature: S::Vector::zero(),
         }
+    }
+
+    /// The same wall with a velocity curvature for its ghost rule (see the field).
+    pub fn with_curvature(mut self, curvature: S::Vector) -> Self {
+        self.curvature = curvature;
+        self
     }
 
     /// The same wall with point-reflected ghosts ([`Reflection::Point`]).
@@ -192,6 +210,13 @@ impl<S: Space> Domain<S> {
                 name: "axis",
                 value: axis as f64,
                 rule: "a periodic axis cannot have walls",
+            });
+        }
+        if !wall.curvature.is_finite() || wall.curvature[axis] != S::Real::ZERO {
+            return Err(Error::InvalidParameter {
+                name: "wall.curvature",
+                value: wall.curvature[axis].to_f64(),
+                rule: "the velocity curvature must be finite and tangential",
             });
         }
         if !wall.velocity.is_finite() {

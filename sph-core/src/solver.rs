@@ -537,6 +537,7 @@ pub struct Solver<'a, S: Space, K: Kernel, M: Math<S::Real>, D: Term<S>, T: Term
     list_radius: S::Real,
     travel: f64,
     anchor_speed: f64,
+    curved_walls: bool,
     lists_fresh: bool,
     partitioned: bool,
     failed: Option<Error>,
@@ -771,6 +772,7 @@ where
             list_radius,
             travel: 0.0,
             anchor_speed: point_wall_speed(&domain),
+            curved_walls: has_curved_walls(&domain),
             lists_fresh: false,
             partitioned: false,
             failed: None,
@@ -888,10 +890,14 @@ where
         let n = self.n;
         let (fluid_v, ghost_v) = self.a.ve.split_at_mut(n);
         let (fluid_m, ghost_m) = self.a.m.split_at_mut(n);
+        let curved = !homogeneous && self.curved_walls;
         for (k, g) in self.a.ghosts[..self.n_ghost].iter().enumerate() {
             let s = g.source as usize;
             ghost_v[k] =
                 boundary::mirror_velocity(&self.domain, fluid_v[s], g.mirrors, homogeneous);
+            if curved {
+                ghost_v[k] += boundary::curvature_correction(&self.domain, self.a.x[s], g.mirrors);
+            }
             ghost_m[k] = fluid_m[s];
         }
     }
@@ -1652,6 +1658,16 @@ where
     pub fn params(&self) -> &Params<S::Real> {
         &self.params
     }
+}
+
+/// Whether any wall has a velocity curvature for its ghost rule.
+fn has_curved_walls<S: Space>(domain: &Domain<S>) -> bool {
+    (0..S::DIM).any(|a| {
+        [Side::Lower, Side::Upper]
+            .into_iter()
+            .filter_map(|side| domain.wall(a, side))
+            .any(|w| w.curvature != S::Vector::zero())
+    })
 }
 
 /// The fastest point-reflecting wall (its anchor's speed), or zero.

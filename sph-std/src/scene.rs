@@ -49,6 +49,11 @@ pub struct WallSpec {
     pub free_slip: bool,
     /// Ghost placement ([`Reflection::Point`] needs periodic tangential axes).
     pub reflection: Reflection,
+    /// Continue the tangential velocity through the wall with the curvature
+    /// the momentum equation gives at a no-slip wall without a tangential
+    /// pressure gradient, `-g_t / nu` (channels driven by a body force; see
+    /// `sph_core::domain::Wall::curvature`).
+    pub body_force_curvature: bool,
 }
 
 impl WallSpec {
@@ -63,7 +68,14 @@ impl WallSpec {
             velocity,
             free_slip: false,
             reflection: Reflection::Mirror,
+            body_force_curvature: false,
         }
+    }
+
+    /// The same wall with the body-force curvature (see the field).
+    pub fn with_body_force_curvature(mut self) -> Self {
+        self.body_force_curvature = true;
+        self
     }
 
     /// The same wall with point-reflected ghosts.
@@ -650,6 +662,15 @@ impl<E: Executor> Context<'_, E> {
                             Wall::moving(velocity)
                         };
                         wall.reflection = w.reflection;
+                        if w.body_force_curvature && !w.free_slip {
+                            wall.curvature = S::Vector::from_fn(|b| {
+                                if b == a {
+                                    S::Real::ZERO
+                                } else {
+                                    f(-s.body_force[b] / s.nu)
+                                }
+                            });
+                        }
                         domain = domain.with_wall(a, side, wall)?;
                     }
                 }

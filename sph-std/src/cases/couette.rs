@@ -77,8 +77,16 @@ pub(crate) fn channel(
         axes: [
             AxisSpec::Periodic,
             AxisSpec::Walls(
-                Some(WallSpec::at_rest().point_reflected()),
-                Some(WallSpec::moving([u_wall, 0.0, 0.0]).point_reflected()),
+                Some(
+                    WallSpec::at_rest()
+                        .point_reflected()
+                        .with_body_force_curvature(),
+                ),
+                Some(
+                    WallSpec::moving([u_wall, 0.0, 0.0])
+                        .point_reflected()
+                        .with_body_force_curvature(),
+                ),
             ),
             AxisSpec::Periodic,
         ],
