@@ -350,7 +350,7 @@ impl<S: Space, K: Kernel, M: Math<S::Real>> Pass<'_, S, K, M> {
         // the compiler drops the per-field bounds checks in the pair loop.
         let f = self.fields.uniform();
         let (d, mut acc) = start::<S>(&f, i);
-        let mut fit = T::Scratch::default();
+        let mut scratch = T::Scratch::default();
         terms.init(self.consts, &d, &mut acc);
         let xi = f.x[i];
         let radius2 = self.kernel.radius2();
@@ -359,13 +359,12 @@ impl<S: Space, K: Kernel, M: Math<S::Real>> Pass<'_, S, K, M> {
             let (j, r_ij) = self.separation(&f, xi, row[e]);
             let r2 = r_ij.norm2();
             if r2 < radius2 {
-                self.visit::<T, false>(&f, terms, &d, (&mut acc, &mut fit), j, r_ij, r2);
+                self.visit::<T, false>(&f, terms, &d, (&mut acc, &mut scratch), j, r_ij, r2);
                 row.swap(e, inside);
                 inside += 1;
             }
         }
-        terms.finish(self.consts, &d, &mut acc);
-        terms.fit_finish(self.consts, &d, &fit, &mut acc);
+        terms.finish(self.consts, &d, &scratch, &mut acc);
         (acc, inside)
     }
 
@@ -377,7 +376,7 @@ impl<S: Space, K: Kernel, M: Math<S::Real>> Pass<'_, S, K, M> {
         f: &Fields<'_, S>,
         terms: &T,
         d: &Dest<S>,
-        (acc, fit): (&mut Acc<S>, &mut T::Scratch),
+        (acc, scratch): (&mut Acc<S>, &mut T::Scratch),
         j: usize,
         r_ij: S::Vector,
         r2: S::Real,
@@ -404,7 +403,7 @@ impl<S: Space, K: Kernel, M: Math<S::Real>> Pass<'_, S, K, M> {
             terms.viscous(self.consts, d, f, &pair, acc);
         } else {
             terms.pair(self.consts, d, f, &pair, acc);
-            terms.fit_pair(self.consts, d, f, &pair, fit);
+            terms.pair_scratch(self.consts, d, f, &pair, scratch);
         }
     }
 
@@ -445,14 +444,22 @@ impl<S: Space, K: Kernel, M: Math<S::Real>> Pass<'_, S, K, M> {
         // the compiler drops the per-field bounds checks in the pair loop.
         let f = self.fields.uniform();
         let (d, mut acc) = start::<S>(&f, i);
-        let mut fit = T::Scratch::default();
+        let mut scratch = T::Scratch::default();
         if !VISCOUS_ONLY {
             terms.init(self.consts, &d, &mut acc);
         }
         match self.neighbours {
             Neighbours::Cells(cells) => {
                 cells.for_each_neighbour(self.grid, f.x, i, |j, r_ij, r2| {
-                    self.visit::<T, VISCOUS_ONLY>(&f, terms, &d, (&mut acc, &mut fit), j, r_ij, r2);
+                    self.visit::<T, VISCOUS_ONLY>(
+                        &f,
+                        terms,
+                        &d,
+                        (&mut acc, &mut scratch),
+                        j,
+                        r_ij,
+                        r2,
+                    );
                 })
             }
             Neighbours::Lists {
@@ -475,7 +482,7 @@ impl<S: Space, K: Kernel, M: Math<S::Real>> Pass<'_, S, K, M> {
                             &f,
                             terms,
                             &d,
-                            (&mut acc, &mut fit),
+                            (&mut acc, &mut scratch),
                             j,
                             r_ij,
                             r_ij.norm2(),
@@ -491,7 +498,7 @@ impl<S: Space, K: Kernel, M: Math<S::Real>> Pass<'_, S, K, M> {
                                 &f,
                                 terms,
                                 &d,
-                                (&mut acc, &mut fit),
+                                (&mut acc, &mut scratch),
                                 j,
                                 r_ij,
                                 r2,
@@ -502,8 +509,7 @@ impl<S: Space, K: Kernel, M: Math<S::Real>> Pass<'_, S, K, M> {
             }
         }
         if !VISCOUS_ONLY {
-            terms.finish(self.consts, &d, &mut acc);
-            terms.fit_finish(self.consts, &d, &fit, &mut acc);
+            terms.finish(self.consts, &d, &scratch, &mut acc);
         }
         acc
     }

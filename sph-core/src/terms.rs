@@ -190,14 +190,10 @@ pub trait Term<S: Space>: Copy + Send + Sync {
     ) {
     }
 
-    /// Called once per destination after its neighbours (not in the
-    /// viscous-only pass).
+    /// Called once per neighbour after `pair`, with the term's scratch
+    /// (not in the viscous-only pass).
     #[inline(always)]
-    fn finish(&self, _k: &Consts<S>, _d: &Dest<S>, _acc: &mut Acc<S>) {}
-
-    /// Called once per neighbour with the term's scratch.
-    #[inline(always)]
-    fn fit_pair(
+    fn pair_scratch(
         &self,
         _k: &Consts<S>,
         _d: &Dest<S>,
@@ -207,16 +203,10 @@ pub trait Term<S: Space>: Copy + Send + Sync {
     ) {
     }
 
-    /// Called once per destination after `finish`, with the term's scratch.
+    /// Called once per destination after its neighbours, with the term's
+    /// scratch (not in the viscous-only pass).
     #[inline(always)]
-    fn fit_finish(
-        &self,
-        _k: &Consts<S>,
-        _d: &Dest<S>,
-        _scratch: &Self::Scratch,
-        _acc: &mut Acc<S>,
-    ) {
-    }
+    fn finish(&self, _k: &Consts<S>, _d: &Dest<S>, _scratch: &Self::Scratch, _acc: &mut Acc<S>) {}
 
     /// The linear viscous part of `pair` alone (no pressure, no body force).
     #[inline(always)]
@@ -257,16 +247,12 @@ macro_rules! term_tuple {
                 $(self.$i.viscous(k, d, f, p, acc);)+
             }
             #[inline(always)]
-            fn finish(&self, k: &Consts<S>, d: &Dest<S>, acc: &mut Acc<S>) {
-                $(self.$i.finish(k, d, acc);)+
+            fn pair_scratch(&self, k: &Consts<S>, d: &Dest<S>, f: &Fields<'_, S>, p: &Pair<S>, scratch: &mut Self::Scratch) {
+                $(self.$i.pair_scratch(k, d, f, p, &mut scratch.$i);)+
             }
             #[inline(always)]
-            fn fit_pair(&self, k: &Consts<S>, d: &Dest<S>, f: &Fields<'_, S>, p: &Pair<S>, scratch: &mut Self::Scratch) {
-                $(self.$i.fit_pair(k, d, f, p, &mut scratch.$i);)+
-            }
-            #[inline(always)]
-            fn fit_finish(&self, k: &Consts<S>, d: &Dest<S>, scratch: &Self::Scratch, acc: &mut Acc<S>) {
-                $(self.$i.fit_finish(k, d, &scratch.$i, acc);)+
+            fn finish(&self, k: &Consts<S>, d: &Dest<S>, scratch: &Self::Scratch, acc: &mut Acc<S>) {
+                $(self.$i.finish(k, d, &scratch.$i, acc);)+
             }
         }
     };
@@ -512,7 +498,7 @@ impl<S: Space> Term<S> for CorrectedMorrisViscosity<S::Real> {
     const NEEDS_F: bool = true;
     const VISCOUS: bool = true;
     #[inline(always)]
-    fn fit_pair(
+    fn pair_scratch(
         &self,
         k: &Consts<S>,
         _d: &Dest<S>,
@@ -558,7 +544,7 @@ impl<S: Space> Term<S> for CorrectedMorrisViscosity<S::Real> {
     #[inline(always)]
     // Matrix index arithmetic reads clearer than iterator chains here.
     #[allow(clippy::needless_range_loop)]
-    fn fit_finish(&self, k: &Consts<S>, d: &Dest<S>, fit: &Self::Scratch, acc: &mut Acc<S>) {
+    fn finish(&self, k: &Consts<S>, d: &Dest<S>, fit: &Self::Scratch, acc: &mut Acc<S>) {
         let dim = S::DIM;
         let n = fit_len(dim);
         let mut t = fit.t;
@@ -760,7 +746,7 @@ impl<S: Space> Term<S> for Shifting<S::Real> {
     /// First-order gradients `<grad f>_i = sum_j V_j (f_j - f_i) grad_i W_ij`
     /// for the Taylor correction.
     #[inline(always)]
-    fn fit_pair(
+    fn pair_scratch(
         &self,
         _k: &Consts<S>,
         d: &Dest<S>,
@@ -780,7 +766,7 @@ impl<S: Space> Term<S> for Shifting<S::Real> {
     /// took it: its velocity and density change by `u_s . grad` per unit time
     /// (Lind et al. 2012, Taylor expansion to first order).
     #[inline(always)]
-    fn fit_finish(&self, _k: &Consts<S>, _d: &Dest<S>, g: &Self::Scratch, acc: &mut Acc<S>) {
+    fn finish(&self, _k: &Consts<S>, _d: &Dest<S>, g: &Self::Scratch, acc: &mut Acc<S>) {
         for b in 0..S::DIM {
             acc.dv += g.v[b] * acc.shift[b];
         }

@@ -22,7 +22,7 @@ use std::sync::Arc;
 use sph_core::analytic::Couette;
 use sph_core::prelude::Limits;
 
-use crate::config::{CouetteConfig, ViscosityForm};
+use crate::config::{CouetteConfig, KernelName, ViscosityForm};
 use crate::error::{Error, Result};
 use crate::scene::{AxisSpec, Monitor, Physics, Region, Regularise, Scene, WallSpec};
 
@@ -83,8 +83,7 @@ impl Geometry {
         let h = cfg.beta * dx;
         // The neighbour lists reach (1 + skin) R; the strip is strictly wider
         // than `strip_supports` such radii, so the periodic-image rule holds.
-        let radius = cfg.kernel.support() * h * (1.0 + SKIN);
-        let nx = (cfg.strip_supports * radius / dx).floor() as usize + 1;
+        let nx = strip_particles(cfg.kernel, h, dx, cfg.strip_supports);
         let c0 = cfg.sound_speed_factor * cfg.u_wall;
         let alpha = match cfg.viscosity {
             ViscosityForm::Artificial if cfg.alpha > 0.0 => cfg.alpha,
@@ -103,6 +102,14 @@ impl Geometry {
             alpha,
         }
     }
+}
+
+/// Particles along a periodic strip strictly wider than `supports` support
+/// radii with skin, `(1 + SKIN) kappa h`, for spacing `dx`: the neighbour
+/// lists then meet at most one image of each particle.
+pub fn strip_particles(kernel: KernelName, h: f64, dx: f64, supports: f64) -> usize {
+    let radius = kernel.support() * h * (1.0 + SKIN);
+    (supports * radius / dx).floor() as usize + 1
 }
 
 /// Fluid velocities at one output time.

@@ -509,29 +509,8 @@ where
     }
 }
 
-/// The viscous term of a scene (a run-time choice: one predictable branch per pair).
-fn viscosity<F: Real>(scene: &Scene, h: f64) -> AnyViscosity<F> {
-    let mu = F::from_f64(scene.nu * scene.rho0);
-    match scene.physics.viscosity {
-        ViscosityForm::Morris => AnyViscosity::Morris(MorrisViscosity { mu }),
-        ViscosityForm::Pi => AnyViscosity::Pi(PiViscosity { mu }),
-        // Dispatched as its own type (see `by_terms`); never reached.
-        ViscosityForm::Corrected => AnyViscosity::Morris(MorrisViscosity { mu }),
-        ViscosityForm::Artificial => {
-            let alpha = if scene.physics.alpha > 0.0 {
-                scene.physics.alpha
-            } else {
-                // nu = alpha h c0 / (2 (d + 2)) (physics.md 1.4).
-                2.0 * (scene.dim as f64 + 2.0) * scene.nu / (h * scene.physics.sound_speed)
-            };
-            AnyViscosity::Artificial(ArtificialViscosity {
-                alpha: F::from_f64(alpha),
-                beta: F::ZERO,
-            })
-        }
-    }
-}
-
+/// The viscous term of a scene: the run-time enum (one predictable branch
+/// per pair) or the consistent Laplacian.
 fn by_terms<S, K, M, E>(scene: &Scene, exec: &E, progress: &dyn Progress) -> Result<RunRecord>
 where
     S: Space,
@@ -539,16 +518,35 @@ where
     M: Math<S::Real>,
     E: Executor,
 {
-    // The consistent Laplacian is its own type: its accumulators would cost
-    // every other viscous form a larger per-particle state if it were a
-    // variant of the run-time enum.
-    if scene.physics.viscosity == ViscosityForm::Corrected {
-        let mu = S::Real::from_f64(scene.nu * scene.rho0);
-        by_regularisation::<S, K, M, E, _>(scene, exec, progress, CorrectedMorrisViscosity { mu })
-    } else {
-        let h = scene.physics.beta * scene.dx;
-        let visc = viscosity::<S::Real>(scene, h);
+    let mu = S::Real::from_f64(scene.nu * scene.rho0);
+    let run = |visc: AnyViscosity<S::Real>| {
         by_regularisation::<S, K, M, E, _>(scene, exec, progress, visc)
+    };
+    match scene.physics.viscosity {
+        ViscosityForm::Morris => run(AnyViscosity::Morris(MorrisViscosity { mu })),
+        ViscosityForm::Pi => run(AnyViscosity::Pi(PiViscosity { mu })),
+        ViscosityForm::Artificial => {
+            let alpha = if scene.physics.alpha > 0.0 {
+                scene.physics.alpha
+            } else {
+                // nu = alpha h c0 / (2 (d + 2)) (physics.md 1.4).
+                let h = scene.physics.beta * scene.dx;
+                2.0 * (scene.dim as f64 + 2.0) * scene.nu / (h * scene.physics.sound_speed)
+            };
+            run(AnyViscosity::Artificial(ArtificialViscosity {
+                alpha: S::Real::from_f64(alpha),
+                beta: S::Real::ZERO,
+            }))
+        }
+        // The consistent Laplacian is its own type: its scratch would give
+        // every other viscous form a larger per-particle state if it were a
+        // variant of the run-time enum.
+        ViscosityForm::Corrected => by_regularisation::<S, K, M, E, _>(
+            scene,
+            exec,
+            progress,
+            CorrectedMorrisViscosity { mu },
+        ),
     }
 }
 
@@ -849,12 +847,12 @@ impl<E: Executor> Context<'_, E> {
                 }
             }
             self.progress.advance(steps % 64);
-            let diag = self.diagnostics(&solver, t_out);
+            let (diag, worst) = self.diagnostics(&solver, t_out);
             record.outputs.push(diag);
             if s.keep_particles {
                 record.frames.push(frame(&solver, t_out));
             }
-            if let Some(stop) = self.check_diagnostics(&solver, &diag) {
+            if let Some(stop) = self.judge(solver.time(), &worst) {
                 record.stop = Some(stop);
                 break;
             }
@@ -878,40 +876,18 @@ impl<E: Executor> Context<'_, E> {
         D: Term<S>,
         T: Term<S>,
     {
-        let (dev, i_dev) = max_density_deviation(solver, self.scene.rho0);
-        let (mach, i_mach) = max_mach(solver, self.scene.physics.sound_speed);
-        self.judge(solver.time(), None, (dev, i_dev), (mach, i_mach))
+        let worst = Worst {
+            spacing: None,
+            density: max_density_deviation(solver, self.scene.rho0),
+            mach: max_mach(solver, self.scene.physics.sound_speed),
+        };
+        self.judge(solver.time(), &worst)
     }
 
-    fn check_diagnostics<S, K, M, D, T>(
-        &self,
-        solver: &Solver<'_, S, K, M, D, T>,
-        d: &Diagnostics,
-    ) -> Option<Stop>
-    where
-        S: Space,
-        K: Kernel,
-        M: Math<S::Real>,
-        D: Term<S>,
-        T: Term<S>,
-    {
-        let pair = solver.closest_fluid_pair();
-        let spacing = pair.map(|(i, _, r)| (r / self.scene.dx, i));
-        let (dev, i_dev) = max_density_deviation(solver, self.scene.rho0);
-        let (mach, i_mach) = max_mach(solver, self.scene.physics.sound_speed);
-        let _ = d;
-        self.judge(solver.time(), spacing, (dev, i_dev), (mach, i_mach))
-    }
-
-    fn judge(
-        &self,
-        t: f64,
-        spacing: Option<(f64, usize)>,
-        dev: (f64, usize),
-        mach: (f64, usize),
-    ) -> Option<Stop> {
+    fn judge(&self, t: f64, worst: &Worst) -> Option<Stop> {
         let m = self.scene.monitor;
-        if let Some((r, i)) = spacing {
+        let (dev, mach) = (worst.density, worst.mach);
+        if let Some((r, i)) = worst.spacing {
             if r < m.min_spacing {
                 return Some(Stop {
                     t,
@@ -946,7 +922,13 @@ impl<E: Executor> Context<'_, E> {
         None
     }
 
-    fn diagnostics<S, K, M, D, T>(&self, solver: &Solver<'_, S, K, M, D, T>, t: f64) -> Diagnostics
+    /// The diagnostics at an output time, and the particles at which the
+    /// monitor's quantities are worst.
+    fn diagnostics<S, K, M, D, T>(
+        &self,
+        solver: &Solver<'_, S, K, M, D, T>,
+        t: f64,
+    ) -> (Diagnostics, Worst)
     where
         S: Space,
         K: Kernel,
@@ -971,7 +953,7 @@ impl<E: Executor> Context<'_, E> {
             let v = vec3::<S>(*v);
             ke += 0.5 * m * norm(v).powi(2);
             if let Some(exact) = &s.exact {
-                let p = to3::<S>(domain.to_global(domain_wrap::<S, M>(domain, *x)));
+                let p = to3::<S>(domain.to_global(domain.wrap::<M>(*x)));
                 let ve = exact(p, t);
                 ke_exact += 0.5 * m * norm(ve).powi(2);
                 let e = norm([v[0] - ve[0], v[1] - ve[1], v[2] - ve[2]]) / scale;
@@ -980,17 +962,22 @@ impl<E: Executor> Context<'_, E> {
             }
         }
         let n = solver.n_fluid().max(1) as f64;
-        let pair = solver.closest_fluid_pair();
-        Diagnostics {
+        let worst = Worst {
+            spacing: solver.closest_fluid_pair().map(|(i, _, r)| (r / s.dx, i)),
+            density: max_density_deviation(solver, s.rho0),
+            mach: max_mach(solver, s.physics.sound_speed),
+        };
+        let diag = Diagnostics {
             t,
             kinetic_energy: ke,
             kinetic_energy_exact: s.exact.as_ref().map(|_| ke_exact),
-            min_spacing: pair.map_or(f64::INFINITY, |(_, _, r)| r / s.dx),
-            max_density_deviation: max_density_deviation(solver, s.rho0).0,
-            max_mach: max_mach(solver, s.physics.sound_speed).0,
+            min_spacing: worst.spacing.map_or(f64::INFINITY, |(r, _)| r),
+            max_density_deviation: worst.density.0,
+            max_mach: worst.mach.0,
             linf: s.exact.as_ref().map(|_| linf),
             l2: s.exact.as_ref().map(|_| (sq / n).sqrt()),
-        }
+        };
+        (diag, worst)
     }
 }
 
@@ -1019,8 +1006,13 @@ pub fn steady(outputs: &[Diagnostics], tol: f64, time_scale: f64) -> bool {
     rate < tol
 }
 
-fn domain_wrap<S: Space, M: Math<S::Real>>(domain: &Domain<S>, x: S::Vector) -> S::Vector {
-    domain.wrap::<M>(x)
+/// The monitor's quantities at their worst: `(value, particle)`; the
+/// closest pair in units of dx (`None` between outputs, or with no pair
+/// within the support).
+struct Worst {
+    spacing: Option<(f64, usize)>,
+    density: (f64, usize),
+    mach: (f64, usize),
 }
 
 /// The largest value and its index (a NaN counts as largest).
@@ -1083,7 +1075,7 @@ where
         x: solver
             .positions()
             .iter()
-            .map(|x| to3::<S>(domain.to_global(domain_wrap::<S, M>(domain, *x))))
+            .map(|x| to3::<S>(domain.to_global(domain.wrap::<M>(*x))))
             .collect(),
         v: solver.velocities().iter().map(|v| vec3::<S>(*v)).collect(),
         rho: solver.densities().iter().map(|r| r.to_f64()).collect(),

@@ -17,7 +17,7 @@ use sph_core::analytic::Couette;
 
 use super::{Case, Settings};
 use crate::config::ViscosityForm;
-use crate::couette::SKIN;
+use crate::couette::strip_particles;
 use crate::error::Result;
 use crate::scene::{AxisSpec, Region, Scene, WallSpec};
 
@@ -45,12 +45,6 @@ fn defaults() -> Settings {
     s
 }
 
-/// Particles along a periodic strip at least two support radii (with skin) wide.
-pub(crate) fn strip_particles(settings: &Settings, dx: f64) -> usize {
-    let radius = settings.kernel.support() * settings.beta * dx * (1.0 + SKIN);
-    (2.0 * radius / dx).floor() as usize + 1
-}
-
 /// A channel between point-reflecting walls at `y = 0` and `y = gap` (the
 /// upper one sliding at `u_wall`), periodic along x (and z in 3D, as deep as
 /// wide), fluid at rest, with body force `force` along x, viscosity `nu`,
@@ -67,7 +61,7 @@ pub(crate) fn channel(
     exact: impl Fn(f64, f64) -> f64 + Send + Sync + 'static,
 ) -> Scene {
     let dx = gap / s.resolution as f64;
-    let nx = strip_particles(s, dx);
+    let nx = strip_particles(s.kernel, s.beta * dx, dx, 2.0);
     let depth = if s.dim == 3 { nx as f64 * dx } else { 0.0 };
     Scene {
         case: s.case.clone(),
