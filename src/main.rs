@@ -94,10 +94,11 @@ struct RunArgs {
     /// Overlap factor beta = h / dx.
     #[arg(long, value_name = "B")]
     beta: Option<f64>,
-    /// Density mode.
+    /// Density: summation, continuity, corrected (continuity with a
+    /// corrected divergence).
     #[arg(long, value_name = "MODE", value_parser = parse_name::<DensityMode>)]
     density: Option<DensityMode>,
-    /// Viscous form.
+    /// Viscous form: morris, pi, artificial, corrected (consistent Laplacian).
     #[arg(long, value_name = "FORM", value_parser = parse_name::<ViscosityForm>)]
     viscosity: Option<ViscosityForm>,
     /// Floating-point precision.
@@ -112,7 +113,7 @@ struct RunArgs {
     /// Shifting coefficient C.
     #[arg(long, value_name = "C")]
     shift_coefficient: Option<f64>,
-    /// Density diffusion delta (continuity density only).
+    /// Density diffusion delta (continuity and corrected density).
     #[arg(long, value_name = "D")]
     density_diffusion: Option<f64>,
     /// Time step as a fraction of the smallest stability limit.
@@ -170,11 +171,20 @@ fn run_scene(args: &RunArgs) -> Result<()> {
         .clone()
         .unwrap_or_else(|| PathBuf::from("out").join(&settings.case));
     let bar = progress::Bar::new(&settings.case, args.quiet);
-    let (record, written) = output::in_dir(&dir, || {
+    let (record, reference, written) = output::in_dir(&dir, || {
         let record = sph_std::scene::run(&scene, &bar)?;
-        let figure = (cases::find(&settings.case)?.figure)(&scene, &record)?;
-        let written = report::write_record(&record, Some(&settings), Some(figure), &dir, args.vtk)?;
-        Ok((record, written))
+        let case = cases::find(&settings.case)?;
+        let figure = (case.figure)(&scene, &record)?;
+        let reference = (case.reference)(&record);
+        let written = report::write_record(
+            &record,
+            Some(&settings),
+            Some(figure),
+            reference.as_ref(),
+            &dir,
+            args.vtk,
+        )?;
+        Ok((record, reference, written))
     })?;
     if !args.quiet {
         let p = &record.physics;
@@ -206,6 +216,24 @@ fn run_scene(args: &RunArgs) -> Result<()> {
         }
         if record.steady {
             println!("Steady state reached (kinetic energy change below the case's tolerance).");
+        }
+        if let Some(r) = &reference {
+            let worst = r.points.iter().max_by(|a, b| {
+                (a.sph - a.reference)
+                    .abs()
+                    .total_cmp(&(b.sph - b.reference).abs())
+            });
+            if let Some(w) = worst {
+                println!(
+                    "Against {}: largest deviation {:.3e} of the velocity scale at t = {:.4}, {} at {} ({} points)",
+                    r.source,
+                    r.max_deviation,
+                    r.t,
+                    w.quantity,
+                    w.at,
+                    r.points.len()
+                );
+            }
         }
         let names: Vec<String> = written
             .iter()
@@ -482,10 +510,10 @@ struct CouetteArgs {
     /// Kernel: cubic, quintic, wendland-c2, wendland-c4, gaussian [default: cubic].
     #[arg(long, value_name = "NAME", value_parser = parse_name::<KernelName>)]
     kernel: Option<KernelName>,
-    /// Viscous term: morris, pi, artificial [default: morris].
+    /// Viscous term: morris, pi, artificial, corrected [default: morris].
     #[arg(long, value_name = "FORM", value_parser = parse_name::<ViscosityForm>)]
     viscosity: Option<ViscosityForm>,
-    /// Density: summation, continuity [default: summation].
+    /// Density: summation, continuity, corrected [default: summation].
     #[arg(long, value_name = "MODE", value_parser = parse_name::<DensityMode>)]
     density: Option<DensityMode>,
     /// Precision: f32, f64 [default: f64].

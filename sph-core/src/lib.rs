@@ -42,8 +42,8 @@ pub mod prelude {
     pub use crate::space::{Space, Vector, VectorOps, D1, D2, D3};
     pub use crate::store::Store;
     pub use crate::terms::{
-        AnyViscosity, ArtificialViscosity, BodyForce, Continuity, CorrectedMorrisViscosity,
-        DensityDiffusion, MorrisViscosity, PiViscosity, PressureGradient, Shifting,
-        SummationDensity, Term,
+        AnyContinuity, AnyViscosity, ArtificialViscosity, BodyForce, Continuity,
+        CorrectedMorrisViscosity, DensityDiffusion, MorrisViscosity, PiViscosity, PressureGradient,
+        Shifting, SummationDensity, Term,
     };
 }

@@ -291,6 +291,150 @@ impl<S: Space> Term<S> for Continuity {
     }
 }
 
+/// The scratch of [`AnyContinuity::Corrected`]: the moment matrix
+/// `M_ab = sum_j V_j (x_j - x_i)_a (grad_i W_ij)_b` and the velocity sums
+/// `G_cb = sum_j V_j (v_j - v_i)_c (grad_i W_ij)_b` (rows `a`, `c`).
+#[derive(Clone, Copy, Debug)]
+pub struct Renormal<S: Space> {
+    /// Rows of `M`.
+    pub m: [S::Vector; 3],
+    /// Rows of `G`.
+    pub g: [S::Vector; 3],
+    /// The plain continuity sum, the fallback.
+    pub plain: S::Real,
+}
+
+impl<S: Space> Default for Renormal<S> {
+    fn default() -> Self {
+        Self {
+            m: [S::Vector::zero(); 3],
+            g: [S::Vector::zero(); 3],
+            plain: S::Real::ZERO,
+        }
+    }
+}
+
+/// Continuity density chosen at run time: the plain sum ([`Continuity`]) or
+/// its kernel-gradient-corrected form, one solver type for both.
+///
+/// `Corrected` takes `d rho_i / dt = -rho_i tr(G M^-1)` (see [`Renormal`];
+/// `V_j = m_j / rho_j`): the velocity gradient renormalised so that it is
+/// exact for linear velocity fields on any arrangement (the correction of
+/// Bonet & Lok 1999 applied to the divergence). The plain sum is not: on a
+/// lattice whose rows slide past each other in a shear flow it reports a
+/// compression that depends on the rows' slip phase (it is the time
+/// derivative of the summation density, which varies with that phase at
+/// unchanged volume per particle), and the pressure it builds drives the
+/// transverse motion that long channel-flow runs show
+/// (docs/validation.md). Mass is then no longer exactly `sum_j m_j W_ij`
+/// of the arrangement; a particle whose moment matrix is singular (too few
+/// neighbours) falls back to the plain sum.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum AnyContinuity {
+    /// [`Continuity`].
+    #[default]
+    Plain,
+    /// The kernel-gradient-corrected divergence.
+    Corrected,
+}
+
+impl<S: Space> Term<S> for AnyContinuity {
+    type Scratch = Renormal<S>;
+    const NEEDS_F: bool = true;
+    #[inline(always)]
+    fn pair(&self, k: &Consts<S>, d: &Dest<S>, f: &Fields<'_, S>, p: &Pair<S>, acc: &mut Acc<S>) {
+        if *self == Self::Plain {
+            <Continuity as Term<S>>::pair(&Continuity, k, d, f, p, acc);
+        }
+    }
+
+    #[inline(always)]
+    fn pair_scratch(
+        &self,
+        _k: &Consts<S>,
+        _d: &Dest<S>,
+        f: &Fields<'_, S>,
+        p: &Pair<S>,
+        acc: &mut Renormal<S>,
+    ) {
+        if *self == Self::Plain || p.r2 <= S::Real::ZERO {
+            return;
+        }
+        let j = p.j;
+        acc.plain += f.m[j] * p.v_ij.dot(p.grad);
+        // (x_j - x_i) = -r_ij and (v_j - v_i) = -v_ij.
+        let vol = f.m[j] / f.rho[j];
+        for a in 0..S::DIM {
+            acc.m[a] -= p.grad * (vol * p.r_ij[a]);
+            acc.g[a] -= p.grad * (vol * p.v_ij[a]);
+        }
+    }
+
+    #[inline(always)]
+    fn finish(&self, _k: &Consts<S>, d: &Dest<S>, r: &Renormal<S>, acc: &mut Acc<S>) {
+        if *self == Self::Plain {
+            return;
+        }
+        // M is symmetric, so tr(G M^-1) = sum_cb G_cb (M^-1)_cb.
+        acc.drho += match inverse_symmetric::<S>(&r.m) {
+            Some(inv) => {
+                let mut div = S::Real::ZERO;
+                for c in 0..S::DIM {
+                    div += r.g[c].dot(inv[c]);
+                }
+                -d.rho * div
+            }
+            None => r.plain,
+        };
+    }
+}
+
+/// The inverse of a symmetric `DIM x DIM` matrix given by rows, or `None`
+/// when its determinant is below `1e-6` of its diagonal's product (too few
+/// or too one-sided neighbours for a renormalised gradient).
+fn inverse_symmetric<S: Space>(m: &[S::Vector; 3]) -> Option<[S::Vector; 3]> {
+    let e = |a: usize, b: usize| m[a][b];
+    let mut inv = [S::Vector::zero(); 3];
+    let (det, diag) = match S::DIM {
+        1 => (e(0, 0), e(0, 0)),
+        2 => (e(0, 0) * e(1, 1) - e(0, 1) * e(1, 0), e(0, 0) * e(1, 1)),
+        _ => {
+            let c00 = e(1, 1) * e(2, 2) - e(1, 2) * e(2, 1);
+            let c01 = e(1, 2) * e(2, 0) - e(1, 0) * e(2, 2);
+            let c02 = e(1, 0) * e(2, 1) - e(1, 1) * e(2, 0);
+            (
+                e(0, 0) * c00 + e(0, 1) * c01 + e(0, 2) * c02,
+                e(0, 0) * e(1, 1) * e(2, 2),
+            )
+        }
+    };
+    let tiny = S::Real::from_f64(1e-6);
+    if !(det.abs() > tiny * diag.abs()) || !det.is_finite() {
+        return None;
+    }
+    let r = S::Real::ONE / det;
+    match S::DIM {
+        1 => inv[0][0] = r,
+        2 => {
+            inv[0][0] = e(1, 1) * r;
+            inv[1][1] = e(0, 0) * r;
+            inv[0][1] = -e(0, 1) * r;
+            inv[1][0] = -e(1, 0) * r;
+        }
+        _ => {
+            for a in 0..3 {
+                for b in 0..3 {
+                    // Cofactor of (b, a), cyclic indices.
+                    let (b1, b2) = ((b + 1) % 3, (b + 2) % 3);
+                    let (a1, a2) = ((a + 1) % 3, (a + 2) % 3);
+                    inv[a][b] = (e(b1, a1) * e(b2, a2) - e(b1, a2) * e(b2, a1)) * r;
+                }
+            }
+        }
+    }
+    Some(inv)
+}
+
 /// Symmetric pressure gradient
 /// `dv_i/dt = -sum_j m_j (P_i/rho_i^2 + P_j/rho_j^2) grad_i W_ij`;
 /// pairwise antisymmetric, so it conserves linear and angular momentum.
@@ -477,12 +621,22 @@ const fn fit_len(dim: usize) -> usize {
 ///
 /// For destination `i` it fits `v_i - v_j = r_ij . grad v - 1/2 r_ij r_ij : H`
 /// over the neighbours in the least-squares sense, with weights
-/// `V_j (-F_ij)` (`V_j = m_j / rho_j`), and takes `(mu / rho_i) tr H` as the
+/// `V_j (-F_ij)` (`V_j = m_j / rho_j`), and takes `(mu / rho0) tr H` as the
 /// viscous acceleration: one neighbour pass, a `5 x 5` (3D: `9 x 9`) solve
 /// per particle. On a lattice it agrees with the Morris operator to its
 /// lattice bias; on a sheared lattice, where the Morris operator's bias
 /// depends on how far the rows have slid (what makes long channel-flow runs
 /// drift, `shared/physics.md` 10), it has none.
+///
+/// The kinematic viscosity is `mu / rho0`, not `mu / rho_i`: the weakly
+/// compressible model stands in for an incompressible liquid, whose
+/// kinematic viscosity is one number, and its density varies through
+/// artefacts (the lowered sound speed; a sheared lattice, whose summation
+/// density changes with the rows' slip phase at unchanged volume per
+/// particle). With `mu / rho_i` those artefacts become a viscosity that
+/// varies in space: in plane Poiseuille flow the summation density near
+/// the walls rises 0.3 % by t = 10 s and the centre-line speed 1e-3 u_max
+/// with it (3x the error of `mu / rho0`, docs/validation.md).
 ///
 /// Not conservative: momentum is not exchanged pairwise. The viscous
 /// time-step estimate uses the Morris operator (the same on a lattice). A
@@ -491,6 +645,8 @@ const fn fit_len(dim: usize) -> usize {
 pub struct CorrectedMorrisViscosity<F> {
     /// Dynamic viscosity `mu`.
     pub mu: F,
+    /// Reference density `rho0`: the acceleration is `(mu / rho0) lap v`.
+    pub rho0: F,
 }
 
 impl<S: Space> Term<S> for CorrectedMorrisViscosity<S::Real> {
@@ -544,7 +700,7 @@ impl<S: Space> Term<S> for CorrectedMorrisViscosity<S::Real> {
     #[inline(always)]
     // Matrix index arithmetic reads clearer than iterator chains here.
     #[allow(clippy::needless_range_loop)]
-    fn finish(&self, k: &Consts<S>, d: &Dest<S>, fit: &Self::Scratch, acc: &mut Acc<S>) {
+    fn finish(&self, k: &Consts<S>, _d: &Dest<S>, fit: &Self::Scratch, acc: &mut Acc<S>) {
         let dim = S::DIM;
         let n = fit_len(dim);
         let mut t = fit.t;
@@ -569,7 +725,7 @@ impl<S: Space> Term<S> for CorrectedMorrisViscosity<S::Real> {
         } else {
             fit.plain
         };
-        acc.dv += lap * (self.mu / d.rho);
+        acc.dv += lap * (self.mu / self.rho0);
     }
 
     /// The Morris operator (see the type docs).

@@ -105,6 +105,10 @@ named_enum!(
         Summation => "summation",
         /// The continuity equation (the poster's choice).
         Continuity => "continuity",
+        /// The continuity equation with a kernel-gradient-corrected
+        /// divergence, exact for linear velocity fields on any arrangement
+        /// (`sph_core::terms::AnyContinuity::Corrected`).
+        Corrected => "corrected",
     }
 );
 

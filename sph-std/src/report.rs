@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
-use crate::cases::Settings;
+use crate::cases::{Reference, Settings};
 use crate::couette::Snapshot;
 use crate::error::{Error, Result};
 use crate::output::{pvd, vtu, write_atomic};
@@ -41,6 +41,8 @@ struct Summary<'a> {
     wall_seconds: f64,
     storage_bytes: usize,
     outputs: &'a [Diagnostics],
+    #[serde(skip_serializing_if = "Option::is_none")]
+    reference: Option<&'a Reference>,
 }
 
 #[derive(Serialize)]
@@ -54,7 +56,11 @@ struct Limits {
 ///
 /// # Errors
 /// Never for finite numbers; reported rather than assumed.
-pub fn summary_json(record: &RunRecord, settings: Option<&Settings>) -> Result<String> {
+pub fn summary_json(
+    record: &RunRecord,
+    settings: Option<&Settings>,
+    reference: Option<&Reference>,
+) -> Result<String> {
     let finite = |x: f64| if x.is_finite() { x } else { f64::MAX };
     let summary = Summary {
         case: &record.case,
@@ -85,6 +91,7 @@ pub fn summary_json(record: &RunRecord, settings: Option<&Settings>) -> Result<S
         wall_seconds: record.wall_seconds,
         storage_bytes: record.storage_bytes,
         outputs: &record.outputs,
+        reference,
     };
     let mut value = serde_json::to_value(&summary)
         .map_err(|e| Error::config("summary", "json", e.to_string()))?;
@@ -195,7 +202,8 @@ pub fn diagnostics_png(record: &RunRecord) -> Result<Vec<u8>> {
 }
 
 /// Writes every output of a run into `dir` (`case.png` when the case has a
-/// figure; VTK snapshots with `vtk`, 2D only); returns the paths written.
+/// figure, the comparison with reference data in summary.json when it has
+/// one; VTK snapshots with `vtk`, 2D only); returns the paths written.
 ///
 /// # Errors
 /// [`Error::Io`] naming the file that could not be written.
@@ -203,6 +211,7 @@ pub fn write_record(
     record: &RunRecord,
     settings: Option<&Settings>,
     figure: Option<Vec<u8>>,
+    reference: Option<&Reference>,
     dir: &Path,
     vtk: bool,
 ) -> Result<Vec<PathBuf>> {
@@ -213,7 +222,10 @@ pub fn write_record(
         written.push(path);
         Ok(())
     };
-    put("summary.json", summary_json(record, settings)?.as_bytes())?;
+    put(
+        "summary.json",
+        summary_json(record, settings, reference)?.as_bytes(),
+    )?;
     put("particles.csv", particles_csv(record).as_bytes())?;
     if let Some(s) = settings {
         put("config.toml", s.to_toml()?.as_bytes())?;

@@ -23,7 +23,7 @@ use sph_core::kernel::{
 };
 use sph_core::math::{Libm, Math, Micromath};
 use sph_core::prelude::{
-    AnyViscosity, ArtificialViscosity, BodyForce, Continuity, CorrectedMorrisViscosity,
+    AnyContinuity, AnyViscosity, ArtificialViscosity, BodyForce, CorrectedMorrisViscosity,
     DensityDiffusion, Domain, Eos, MorrisViscosity, Params, PiViscosity, PressureGradient,
     Reflection, Shifting, Side, Solver, SummationDensity, Term, Wall, D2, D3,
 };
@@ -167,7 +167,7 @@ pub struct Physics {
     pub regularise: Regularise,
     /// Shifting coefficient `C` (see `sph_core::terms::Shifting`).
     pub shift_coefficient: f64,
-    /// Density diffusion `delta` (continuity density only; 0: off).
+    /// Density diffusion `delta` (continuity and corrected density; 0: off).
     pub density_diffusion: f64,
     /// Artificial-viscosity coefficient (used with `viscosity = artificial`).
     pub alpha: f64,
@@ -545,7 +545,10 @@ where
             scene,
             exec,
             progress,
-            CorrectedMorrisViscosity { mu },
+            CorrectedMorrisViscosity {
+                mu,
+                rho0: S::Real::from_f64(scene.rho0),
+            },
         ),
     }
 }
@@ -600,16 +603,31 @@ where
             (PressureGradient, visc, g, shift),
             |t, v| retune(&mut t.3, v),
         ),
-        (DensityMode::Continuity, Regularise::None) => ctx.simulate::<S, K, M, _, _>(
+        (continuity, Regularise::None) => ctx.simulate::<S, K, M, _, _>(
             (),
-            ((Continuity, diffusion), PressureGradient, visc, g),
+            ((by_form(continuity), diffusion), PressureGradient, visc, g),
             |_, _| {},
         ),
-        (DensityMode::Continuity, Regularise::Shifting) => ctx.simulate::<S, K, M, _, _>(
+        (continuity, Regularise::Shifting) => ctx.simulate::<S, K, M, _, _>(
             (),
-            ((Continuity, diffusion), PressureGradient, visc, g, shift),
+            (
+                (by_form(continuity), diffusion),
+                PressureGradient,
+                visc,
+                g,
+                shift,
+            ),
             |t, v| retune(&mut t.4, v),
         ),
+    }
+}
+
+/// The continuity form of a density mode other than summation.
+fn by_form(mode: DensityMode) -> AnyContinuity {
+    if mode == DensityMode::Corrected {
+        AnyContinuity::Corrected
+    } else {
+        AnyContinuity::Plain
     }
 }
 

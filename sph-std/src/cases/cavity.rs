@@ -9,9 +9,10 @@
 //! `u(x = 1/2, y)` and `v(x, y = 1/2)` are then compared with the tables of
 //! Ghia, Ghia & Shin, J. Comput. Phys. 48 (1982) 387-411, Tables I and II
 //! (Re = 100 columns), typed in from `shared/physics.md` section 11.
-//! Default regularisation: particle shifting.
+//! Default regularisation: particle shifting; default operators: corrected
+//! continuity density and the consistent Laplacian.
 
-use super::{Case, Settings};
+use super::{Case, Reference, ReferencePoint, Settings};
 use crate::error::Result;
 use crate::plot::{line_plot, Axes, Series};
 use crate::scene::{AxisSpec, Frame, Region, Regularise, RunRecord, Scene, WallSpec};
@@ -19,14 +20,17 @@ use crate::scene::{AxisSpec, Frame, Region, Regularise, RunRecord, Scene, WallSp
 /// The case's table entry.
 pub const CASE: Case = Case {
     name: "lid-driven-cavity",
-    about: "lid-driven square cavity, centre-line profiles against Ghia, Ghia & Shin 1982 (Re 100; regularisation: shifting)",
+    about: "lid-driven square cavity, centre-line profiles against Ghia, Ghia & Shin 1982 (Re 100; consistent operators; regularisation: shifting)",
     defaults,
     build,
     figure,
+    reference,
 };
 
 fn defaults() -> Settings {
-    let mut s = Settings::base("lid-driven-cavity", 50, 60.0, 1.0, 100.0);
+    // The consistent operators: 0.018 / 0.011 U from Ghia's centre lines at
+    // 50 x 50, against 0.047 / 0.046 U with summation density and Morris.
+    let mut s = Settings::base("lid-driven-cavity", 50, 60.0, 1.0, 100.0).consistent();
     s.regularise = Regularise::Shifting;
     // The lid's corners are singular: the pressure there peaks at several
     // rho U^2 (density 6 % above rho0 with c0 = 10 U at 50 across).
@@ -90,49 +94,98 @@ const fn row(s: f64, value: f64) -> GhiaRow {
     GhiaRow { s, value }
 }
 
-/// Ghia, Ghia & Shin (1982), Re = 100: `u(x = 0.5, y)` (Table I) and
-/// `v(x, y = 0.5)` (Table II).
-pub fn ghia_re100() -> (&'static [GhiaRow], &'static [GhiaRow]) {
-    const U: [GhiaRow; 17] = [
-        row(1.0000, 1.0),
-        row(0.9766, 0.84123),
-        row(0.9688, 0.78871),
-        row(0.9609, 0.73722),
-        row(0.9531, 0.68717),
-        row(0.8516, 0.23151),
-        row(0.7344, 0.00332),
-        row(0.6172, -0.13641),
-        row(0.5000, -0.20581),
-        row(0.4531, -0.21090),
-        row(0.2813, -0.15662),
-        row(0.1719, -0.10150),
-        row(0.1016, -0.06434),
-        row(0.0703, -0.04775),
-        row(0.0625, -0.04192),
-        row(0.0547, -0.03717),
-        row(0.0000, 0.0),
-    ];
-    const V: [GhiaRow; 17] = [
-        row(1.0000, 0.0),
-        row(0.9688, -0.05906),
-        row(0.9609, -0.07391),
-        row(0.9531, -0.08864),
-        row(0.9453, -0.10313),
-        row(0.9063, -0.16914),
-        row(0.8594, -0.22445),
-        row(0.8047, -0.24533),
-        row(0.5000, 0.05454),
-        row(0.2344, 0.17527),
-        row(0.2266, 0.17507),
-        row(0.1563, 0.16077),
-        row(0.0938, 0.12317),
-        row(0.0781, 0.10890),
-        row(0.0703, 0.10091),
-        row(0.0625, 0.09233),
-        row(0.0000, 0.0),
-    ];
-    (&U, &V)
+/// Ghia, Ghia & Shin (1982), J. Comput. Phys. 48: 387-411: `u(x = 0.5, y)`
+/// (Table I) and `v(x, y = 0.5)` (Table II) for `re` = 100 or 1000 (the
+/// columns typed in here; `None` for any other Reynolds number).
+pub fn ghia(re: f64) -> Option<(&'static [GhiaRow], &'static [GhiaRow])> {
+    if (re - 100.0).abs() < 1e-9 {
+        Some((&U_100, &V_100))
+    } else if (re - 1000.0).abs() < 1e-9 {
+        Some((&U_1000, &V_1000))
+    } else {
+        None
+    }
 }
+
+const U_100: [GhiaRow; 17] = [
+    row(1.0000, 1.0),
+    row(0.9766, 0.84123),
+    row(0.9688, 0.78871),
+    row(0.9609, 0.73722),
+    row(0.9531, 0.68717),
+    row(0.8516, 0.23151),
+    row(0.7344, 0.00332),
+    row(0.6172, -0.13641),
+    row(0.5000, -0.20581),
+    row(0.4531, -0.2109),
+    row(0.2813, -0.15662),
+    row(0.1719, -0.1015),
+    row(0.1016, -0.06434),
+    row(0.0703, -0.04775),
+    row(0.0625, -0.04192),
+    row(0.0547, -0.03717),
+    row(0.0000, 0.0),
+];
+
+const V_100: [GhiaRow; 17] = [
+    row(1.0000, 0.0),
+    row(0.9688, -0.05906),
+    row(0.9609, -0.07391),
+    row(0.9531, -0.08864),
+    row(0.9453, -0.10313),
+    row(0.9063, -0.16914),
+    row(0.8594, -0.22445),
+    row(0.8047, -0.24533),
+    row(0.5000, 0.05454),
+    row(0.2344, 0.17527),
+    row(0.2266, 0.17507),
+    row(0.1563, 0.16077),
+    row(0.0938, 0.12317),
+    row(0.0781, 0.1089),
+    row(0.0703, 0.10091),
+    row(0.0625, 0.09233),
+    row(0.0000, 0.0),
+];
+
+const U_1000: [GhiaRow; 17] = [
+    row(1.0000, 1.0),
+    row(0.9766, 0.65928),
+    row(0.9688, 0.57492),
+    row(0.9609, 0.51117),
+    row(0.9531, 0.46604),
+    row(0.8516, 0.33304),
+    row(0.7344, 0.18719),
+    row(0.6172, 0.05702),
+    row(0.5000, -0.0608),
+    row(0.4531, -0.10648),
+    row(0.2813, -0.27805),
+    row(0.1719, -0.38289),
+    row(0.1016, -0.2973),
+    row(0.0703, -0.2222),
+    row(0.0625, -0.20196),
+    row(0.0547, -0.18109),
+    row(0.0000, 0.0),
+];
+
+const V_1000: [GhiaRow; 17] = [
+    row(1.0000, 0.0),
+    row(0.9688, -0.21388),
+    row(0.9609, -0.27669),
+    row(0.9531, -0.33714),
+    row(0.9453, -0.39188),
+    row(0.9063, -0.5155),
+    row(0.8594, -0.42665),
+    row(0.8047, -0.31966),
+    row(0.5000, 0.02526),
+    row(0.2344, 0.32235),
+    row(0.2266, 0.33075),
+    row(0.1563, 0.37095),
+    row(0.0938, 0.32627),
+    row(0.0781, 0.30353),
+    row(0.0703, 0.29012),
+    row(0.0625, 0.27485),
+    row(0.0000, 0.0),
+];
 
 /// Kernel-weighted (Shepard) average of the particle velocities within
 /// `radius` of `at`, with weights `(1 - q)^4 (1 + 4q)`, `q = r / radius`;
@@ -158,9 +211,10 @@ pub fn shepard_velocity(frame: &Frame, at: [f64; 2], radius: f64) -> Option<[f64
 /// SPH value the Shepard average within `radius`.
 pub type Comparison = Vec<(f64, f64, f64)>;
 
-/// Compares a frame with Ghia's Re = 100 tables (see [`Comparison`]).
-pub fn compare_re100(frame: &Frame, radius: f64) -> (Comparison, Comparison) {
-    let (u_rows, v_rows) = ghia_re100();
+/// Compares a frame with Ghia's tables at `re` (see [`Comparison`]);
+/// `None` where [`ghia`] has no table.
+pub fn compare_ghia(frame: &Frame, radius: f64, re: f64) -> Option<(Comparison, Comparison)> {
+    let (u_rows, v_rows) = ghia(re)?;
     let interior = |s: f64| s > 0.0 && s < 1.0;
     let u = u_rows
         .iter()
@@ -172,13 +226,45 @@ pub fn compare_re100(frame: &Frame, radius: f64) -> (Comparison, Comparison) {
         .filter(|r| interior(r.s))
         .filter_map(|r| shepard_velocity(frame, [r.s, 0.5], radius).map(|v| (r.s, r.value, v[1])))
         .collect();
-    (u, v)
+    Some((u, v))
+}
+
+/// The last output's centre lines against Ghia's table at the run's
+/// Reynolds number (Shepard averages within `h`).
+fn reference(record: &RunRecord) -> Option<Reference> {
+    let frame = record.frames.last()?;
+    let re = record.velocity_scale * record.length_scale / record.nu;
+    let (u, v) = compare_ghia(frame, record.h, re)?;
+    let mut points = Vec::new();
+    for (quantity, rows) in [("u(x = 1/2)", &u), ("v(y = 1/2)", &v)] {
+        for &(at, reference, sph) in rows.iter() {
+            points.push(ReferencePoint {
+                quantity,
+                at,
+                reference,
+                sph,
+            });
+        }
+    }
+    let max_deviation = points
+        .iter()
+        .map(|p| (p.sph - p.reference).abs() / record.velocity_scale)
+        .fold(0.0, f64::max);
+    Some(Reference {
+        source: format!(
+            "Ghia, Ghia & Shin 1982, J. Comput. Phys. 48: 387-411, Tables I and II, Re {re:.0}"
+        ),
+        t: frame.t,
+        max_deviation,
+        points,
+    })
 }
 
 /// Centre-line profiles of the last output (Shepard averages within h)
 /// against Ghia's Re = 100 points.
 fn figure(_scene: &Scene, record: &RunRecord) -> Result<Vec<u8>> {
-    let (u_ref, v_ref) = ghia_re100();
+    let re = record.velocity_scale * record.length_scale / record.nu;
+    let (u_ref, v_ref) = ghia(re).unwrap_or((&[], &[]));
     let mut series = Vec::new();
     if let Some(f) = record.frames.last() {
         let samples = |line: bool| -> Vec<(f64, f64)> {
@@ -221,7 +307,7 @@ fn figure(_scene: &Scene, record: &RunRecord) -> Result<Vec<u8>> {
     });
     line_plot(
         &Axes {
-            title: "Lid-driven cavity, Re 100: centre lines".into(),
+            title: format!("Lid-driven cavity, Re {re:.0}: centre lines"),
             x: "y (for u), x (for v)".into(),
             y: "velocity / U".into(),
             log_x: false,

@@ -30,7 +30,7 @@ mod couette;
 mod poiseuille;
 mod taylor_green;
 
-pub use cavity::{compare_re100, ghia_re100, shepard_velocity, Comparison, GhiaRow};
+pub use cavity::{compare_ghia, ghia, shepard_velocity, Comparison, GhiaRow};
 pub use taylor_green::velocity as taylor_green_velocity;
 
 /// A built-in case.
@@ -47,6 +47,41 @@ pub struct Case {
     /// The case's own figure (`case.png`): profiles or fields against the
     /// reference, from the scene and its run.
     pub figure: fn(&Scene, &RunRecord) -> Result<Vec<u8>>,
+    /// The run's last output against published reference data, where the
+    /// case has some and no exact solution (`reference` in summary.json).
+    pub reference: fn(&RunRecord) -> Option<Reference>,
+}
+
+/// A run against published reference data (see [`Case::reference`]).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Reference {
+    /// Where the data come from.
+    pub source: String,
+    /// Time of the output compared.
+    pub t: f64,
+    /// Largest `|sph - reference|` over the points, relative to the
+    /// velocity scale.
+    pub max_deviation: f64,
+    /// Every point compared.
+    pub points: Vec<ReferencePoint>,
+}
+
+/// One point of a [`Reference`].
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ReferencePoint {
+    /// The quantity and line, e.g. `u(x = 1/2)`.
+    pub quantity: &'static str,
+    /// Position along the line.
+    pub at: f64,
+    /// The published value.
+    pub reference: f64,
+    /// The run's value there.
+    pub sph: f64,
+}
+
+/// No reference data (cases with an exact solution).
+pub(crate) fn no_reference(_record: &RunRecord) -> Option<Reference> {
+    None
 }
 
 /// Every built-in case.
@@ -108,7 +143,7 @@ pub struct Settings {
     pub regularise: Regularise,
     /// Shifting coefficient `C`.
     pub shift_coefficient: f64,
-    /// Density diffusion `delta` (continuity density only; 0: off).
+    /// Density diffusion `delta` (continuity and corrected density; 0: off).
     pub density_diffusion: f64,
     /// Time step as a fraction of the smallest stability limit.
     pub dt_factor: f64,
@@ -363,6 +398,16 @@ impl Settings {
             background_pressure: self.background_pressure * rho0 * c0 * c0,
             dt_factor: self.dt_factor,
         }
+    }
+
+    /// The consistent operators: kernel-gradient-corrected continuity
+    /// density and the consistent Laplacian (the defaults of every built-in
+    /// case; docs/validation.md measures them against summation density
+    /// and the Morris operator case by case).
+    pub fn consistent(mut self) -> Self {
+        self.density = DensityMode::Corrected;
+        self.viscosity = ViscosityForm::Corrected;
+        self
     }
 
     /// The monitor of these settings.
