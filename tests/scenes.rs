@@ -20,6 +20,10 @@ fn run(s: &Settings) -> RunRecord {
 #[test]
 fn every_case_runs_at_ci_size_under_its_default_monitor() {
     for case in cases::CASES {
+        if case.name == "custom" {
+            // Described by its file: tested below.
+            continue;
+        }
         let mut s = settings(case.name);
         let (resolution, t_end) = match case.name {
             "taylor-green" => (32, 0.5),
@@ -302,4 +306,125 @@ fn couette_stays_exact_over_twenty_diffusion_times() {
         let e = d.linf.unwrap();
         assert!(e <= 1e-5, "t* = {}: {e:e} U", d.t);
     }
+}
+
+/// The example custom scene's settings.
+fn custom_channel() -> Settings {
+    let path = format!(
+        "{}/examples/custom-channel.toml",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let mut s = Settings::from_file(std::path::Path::new(&path)).unwrap();
+    s.threads = 1;
+    s
+}
+
+#[test]
+fn a_scene_from_parts_reaches_the_couette_poiseuille_steady_state() {
+    // examples/custom-channel.toml: a wall at rest and one sliding at U = 1,
+    // a body force F along x, nu = 0.1; no built-in case has this flow. Its
+    // steady state is u(y) = U y + F / (2 nu) y (1 - y), v = 0; the slowest
+    // transient decays as exp(-pi^2 nu t), 3e-9 by t = 20.
+    let mut s = custom_channel();
+    s.t_end = 20.0;
+    s.output_interval = 20.0;
+    let r = run(&s);
+    assert!(r.complete(), "{:?}", r.stop);
+    let (f, nu) = (r.body_force[0], r.nu);
+    assert!((f - 0.4).abs() < 1e-12 && (nu - 0.1).abs() < 1e-12);
+    let last = r.frames.last().unwrap();
+    assert_eq!(last.x.len(), 10 * 20);
+    let mut worst = 0.0f64;
+    for (x, v) in last.x.iter().zip(&last.v) {
+        let y = x[1];
+        let u = y + f / (2.0 * nu) * y * (1.0 - y);
+        worst = worst.max(((v[0] - u).powi(2) + v[1].powi(2)).sqrt());
+    }
+    assert!(worst <= 1e-3, "{worst:e} U from the steady profile");
+}
+
+#[test]
+fn couette_from_parts_is_the_built_in_couette() {
+    // The built-in case's plates, strip and physics described as parts: the
+    // same run to round-off (the box size is entered as a decimal).
+    let text = r#"
+case = "custom"
+resolution = 16
+re = 0.0125
+t_end = 0.05
+output_interval = 0.025
+threads = 1
+[scene]
+origin = [0.0, 0.0]
+extent = [3.75e-4, 1e-3]
+periodic = ["x"]
+rho0 = 1000.0
+velocity_scale = 1.25e-5
+length_scale = 1e-3
+[[scene.walls]]
+axis = "y"
+side = "lower"
+reflection = "point"
+body_force_curvature = true
+[[scene.walls]]
+axis = "y"
+side = "upper"
+velocity = [1.25e-5, 0.0]
+reflection = "point"
+body_force_curvature = true
+"#;
+    let custom = run(&Settings::from_toml(text).unwrap());
+    let mut s = settings("couette");
+    s.resolution = 16;
+    s.t_end = 0.05;
+    s.output_interval = 0.025;
+    let built_in = run(&s);
+    assert_eq!(custom.n_fluid, built_in.n_fluid);
+    assert_eq!(custom.steps, built_in.steps);
+    for (a, b) in custom.frames.iter().zip(&built_in.frames) {
+        for (va, vb) in a.v.iter().zip(&b.v) {
+            assert!((va[0] - vb[0]).abs() <= 1e-9 * 1.25e-5, "{va:?} vs {vb:?}");
+        }
+    }
+}
+
+#[test]
+fn scenes_from_parts_reject_what_they_cannot_build() {
+    let base = std::fs::read_to_string(format!(
+        "{}/examples/custom-channel.toml",
+        env!("CARGO_MANIFEST_DIR")
+    ))
+    .unwrap();
+    let error = |text: &str| match Settings::from_toml(text) {
+        Ok(s) => cases::scene(&s)
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default(),
+        Err(e) => e.to_string(),
+    };
+    // A wall on a periodic axis.
+    let e = error(&base.replace(r#"periodic = ["x"]"#, r#"periodic = ["x", "y"]"#));
+    assert!(
+        e.contains("scene.walls.axis") && e.contains("periodic"),
+        "{e}"
+    );
+    // A box that is not a whole number of dx.
+    let e = error(&base.replace("extent = [0.5, 1.0]", "extent = [0.52, 1.0]"));
+    assert!(e.contains("scene.extent") && e.contains("0.52"), "{e}");
+    // A vector of the wrong dimension.
+    let e = error(&base.replace("body_force = [0.4, 0.0]", "body_force = [0.4]"));
+    assert!(e.contains("scene.body_force"), "{e}");
+    // An unknown key inside [scene].
+    let e = error(&base.replace(
+        "rho0 = 1.0",
+        "rho0 = 1.0
+density0 = 1.0",
+    ));
+    assert!(e.contains("density0"), "{e}");
+    // No [scene] table.
+    let e = error("case = \"custom\"\n");
+    assert!(e.contains("scene"), "{e}");
+    // A [scene] table in a built-in case's file.
+    let e = error("case = \"couette\"\n[scene]\nrho0 = 1.0\n");
+    assert!(e.contains("unknown key"), "{e}");
 }

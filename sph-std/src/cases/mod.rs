@@ -27,6 +27,7 @@ use crate::scene::{Monitor, Physics, Regularise, RunRecord, Scene};
 
 mod cavity;
 mod couette;
+pub mod custom;
 mod poiseuille;
 mod taylor_green;
 
@@ -90,6 +91,7 @@ pub const CASES: &[Case] = &[
     poiseuille::CASE,
     taylor_green::CASE,
     cavity::CASE,
+    custom::CASE,
 ];
 
 /// The case called `name`.
@@ -159,6 +161,9 @@ pub struct Settings {
     pub monitor_max_density_deviation: f64,
     /// Monitor: largest Mach number.
     pub monitor_max_mach: f64,
+    /// The scene's parts: `case = "custom"` only (see [`custom`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scene: Option<custom::Parts>,
 }
 
 impl Settings {
@@ -191,6 +196,7 @@ impl Settings {
             monitor_min_spacing: m.min_spacing,
             monitor_max_density_deviation: m.max_density_deviation,
             monitor_max_mach: m.max_mach,
+            scene: None,
         }
     }
 
@@ -211,7 +217,7 @@ impl Settings {
                 return Err(Error::config(
                     "case",
                     "(missing)",
-                    "a scene file names its built-in case: case = \"NAME\"",
+                    "a scene file names its built-in case, or custom for a scene from parts: case = \"NAME\"",
                 ))
             }
         };
@@ -220,7 +226,8 @@ impl Settings {
         let mut merged = toml::Table::try_from(&defaults)
             .map_err(|e| Error::config("scene", "defaults", e.to_string()))?;
         for (key, value) in table {
-            if !merged.contains_key(&key) {
+            let parts = key == "scene" && name == custom::CASE.name;
+            if !merged.contains_key(&key) && !parts {
                 return Err(Error::config(
                     key,
                     value,

@@ -1,0 +1,466 @@
+//! `custom`: a scene described from parts in a scene file.
+//!
+//! A scene file with `case = "custom"` takes every key a built-in case
+//! takes (resolution, physics, output times, monitor) plus a `[scene]`
+//! table that describes the flow:
+//!
+//! ```toml
+//! case = "custom"
+//! resolution = 20          # particles across length_scale: dx = length_scale / resolution
+//! re = 100.0               # velocity_scale * length_scale / nu: sets nu
+//!
+//! [scene]
+//! origin = [0.0, 0.0]      # lower corner of the box, one entry per dimension
+//! extent = [1.0, 1.0]      # box size; each a whole number of dx
+//! periodic = ["x"]         # periodic axes ("x", "y", "z")
+//! rho0 = 1.0               # reference density
+//! velocity_scale = 1.0     # U: sound speed = sound_speed_factor * U, errors relative to U
+//! length_scale = 1.0       # L
+//! body_force = [0.0, 0.0]  # acceleration (optional)
+//! steady_tolerance = 1e-4  # stop when |dE/E| per L/U falls below this (optional)
+//! velocity = { profile = "rest" }  # or "uniform" (value), "shear" (rate), "taylor-green" (amplitude, wavelength)
+//!
+//! [[scene.walls]]          # one table per wall; an axis that is neither periodic nor walled is open
+//! axis = "y"
+//! side = "upper"           # "lower" or "upper"
+//! velocity = [1.0, 0.0]    # tangential wall velocity (optional)
+//! free_slip = false        # (optional)
+//! reflection = "mirror"    # "mirror" or "point" (point needs periodic tangential axes)
+//! body_force_curvature = false  # continue the profile with curvature -g_t / nu (channels)
+//!
+//! [[scene.regions]]        # fluid boxes (optional: the whole box)
+//! lo = [0.0, 0.0]
+//! hi = [1.0, 0.5]
+//! ```
+//!
+//! Initial velocity profiles: `rest`; `uniform` with `value` (a vector);
+//! `shear` with `rate`, `u_x = rate (y - origin_y)`; `taylor-green` with
+//! `amplitude` and `wavelength`, the Taylor-Green velocity and its pressure
+//! (`shared/physics.md` 6.c). A custom scene has no exact solution; its
+//! outputs report the diagnostics, and `examples/custom-channel.toml`
+//! shows a channel whose steady state the tests check against theory.
+
+use std::f64::consts::PI;
+use std::sync::Arc;
+
+use serde::{Deserialize, Serialize};
+
+use super::{Case, Settings};
+use crate::config::check;
+use crate::error::{Error, Result};
+use sph_core::prelude::Reflection;
+
+use crate::scene::{AxisSpec, Region, RunRecord, ScalarField, Scene, VectorField, WallSpec};
+
+/// The case's table entry.
+pub const CASE: Case = Case {
+    name: "custom",
+    about: "a scene described from parts in a scene file: box, periodic axes, walls, fluid regions, initial velocity, body force (see examples/custom-channel.toml)",
+    defaults,
+    build,
+    figure,
+    reference: super::no_reference,
+};
+
+/// The most particles a custom scene may ask for (about 300 bytes each in
+/// 2D: 6 GB).
+const MAX_PARTICLES: f64 = 2e7;
+
+fn defaults() -> Settings {
+    Settings::base("custom", 20, 1.0, 0.1, 100.0).consistent()
+}
+
+/// A coordinate axis by name.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Axis {
+    /// The first axis.
+    X,
+    /// The second axis.
+    Y,
+    /// The third axis (3D only).
+    Z,
+}
+
+impl Axis {
+    fn index(self) -> usize {
+        match self {
+            Axis::X => 0,
+            Axis::Y => 1,
+            Axis::Z => 2,
+        }
+    }
+}
+
+/// Which side of the box along an axis.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Side {
+    /// At the box's origin.
+    Lower,
+    /// At origin + extent.
+    Upper,
+}
+
+/// Ghost placement of a wall.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ReflectionName {
+    /// Mirror image across the wall plane.
+    #[default]
+    Mirror,
+    /// Point image through an anchor moving with the wall.
+    Point,
+}
+
+/// One planar wall of the box.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WallPart {
+    /// The axis the wall is normal to.
+    pub axis: Axis,
+    /// Lower or upper side.
+    pub side: Side,
+    /// Tangential wall velocity (empty: at rest).
+    #[serde(default)]
+    pub velocity: Vec<f64>,
+    /// Free slip instead of no-slip.
+    #[serde(default)]
+    pub free_slip: bool,
+    /// Ghost placement.
+    #[serde(default)]
+    pub reflection: ReflectionName,
+    /// Continue the tangential profile with the curvature `-g_t / nu`.
+    #[serde(default)]
+    pub body_force_curvature: bool,
+}
+
+/// A box of fluid.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RegionPart {
+    /// Lower corner.
+    pub lo: Vec<f64>,
+    /// Upper corner.
+    pub hi: Vec<f64>,
+}
+
+/// A named initial velocity profile (see the module docs).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "profile", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum Profile {
+    /// At rest.
+    #[default]
+    Rest,
+    /// A uniform velocity.
+    Uniform {
+        /// The velocity.
+        value: Vec<f64>,
+    },
+    /// `u_x = rate (y - origin_y)`.
+    Shear {
+        /// Shear rate in 1/s.
+        rate: f64,
+    },
+    /// The Taylor-Green vortex and its pressure.
+    TaylorGreen {
+        /// Peak speed.
+        amplitude: f64,
+        /// Period of the pattern along x and y.
+        wavelength: f64,
+    },
+}
+
+/// The `[scene]` table of a custom scene file (see the module docs).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Parts {
+    /// Lower corner of the box.
+    pub origin: Vec<f64>,
+    /// Size of the box.
+    pub extent: Vec<f64>,
+    /// Periodic axes.
+    #[serde(default)]
+    pub periodic: Vec<Axis>,
+    /// Reference density.
+    pub rho0: f64,
+    /// Velocity scale `U`.
+    pub velocity_scale: f64,
+    /// Length scale `L` (the resolution counts particles across it).
+    pub length_scale: f64,
+    /// Body force per unit mass (empty: none).
+    #[serde(default)]
+    pub body_force: Vec<f64>,
+    /// Stop once the relative change of kinetic energy per `L/U` falls
+    /// below this.
+    #[serde(default)]
+    pub steady_tolerance: Option<f64>,
+    /// Initial velocity.
+    #[serde(default)]
+    pub velocity: Profile,
+    /// Walls.
+    #[serde(default)]
+    pub walls: Vec<WallPart>,
+    /// Fluid regions (empty: the whole box).
+    #[serde(default)]
+    pub regions: Vec<RegionPart>,
+}
+
+/// A vector key of `dim` finite entries, padded to three.
+fn vector(key: &str, v: &[f64], dim: usize) -> Result<[f64; 3]> {
+    check(
+        v.len() == dim && v.iter().all(|x| x.is_finite()),
+        key,
+        format!("{v:?}"),
+        &format!("must have {dim} finite entries (one per dimension)"),
+    )?;
+    let mut out = [0.0; 3];
+    out[..dim].copy_from_slice(v);
+    Ok(out)
+}
+
+/// `v`, or zero when empty, as a vector key.
+fn optional_vector(key: &str, v: &[f64], dim: usize) -> Result<[f64; 3]> {
+    if v.is_empty() {
+        Ok([0.0; 3])
+    } else {
+        vector(key, v, dim)
+    }
+}
+
+fn build(s: &Settings) -> Result<Scene> {
+    let parts = s.scene.as_ref().ok_or_else(|| {
+        Error::config(
+            "scene",
+            "(missing)",
+            "a custom scene needs a [scene] table (see examples/custom-channel.toml)",
+        )
+    })?;
+    let d = s.dim;
+    let origin = vector("scene.origin", &parts.origin, d)?;
+    let extent = vector("scene.extent", &parts.extent, d)?;
+    for (name, x) in [
+        ("scene.rho0", parts.rho0),
+        ("scene.velocity_scale", parts.velocity_scale),
+        ("scene.length_scale", parts.length_scale),
+    ] {
+        check(
+            x.is_finite() && x > 0.0,
+            name,
+            x,
+            "must be positive and finite",
+        )?;
+    }
+    let dx = parts.length_scale / s.resolution as f64;
+    let mut particles = 1.0;
+    for a in 0..d {
+        let cells = extent[a] / dx;
+        check(
+            extent[a] > 0.0 && (cells - cells.round()).abs() <= 1e-6 * cells.max(1.0),
+            "scene.extent",
+            extent[a],
+            &format!(
+                "must be positive and a whole number of dx = length_scale / resolution = {dx:e} (here {cells} dx)"
+            ),
+        )?;
+        particles *= cells.round();
+    }
+    check(
+        particles <= MAX_PARTICLES,
+        "resolution",
+        s.resolution,
+        &format!("asks for {particles:e} particles; at most {MAX_PARTICLES:e}"),
+    )?;
+    // Axes are open unless named periodic or walled; a 2D scene's third
+    // axis is periodic (unused).
+    let mut axes = [AxisSpec::Periodic; 3];
+    for axis in axes.iter_mut().take(d) {
+        *axis = AxisSpec::Walls(None, None);
+    }
+    for p in &parts.periodic {
+        check(
+            p.index() < d,
+            "scene.periodic",
+            format!("{p:?}"),
+            "names an axis the scene does not have",
+        )?;
+        axes[p.index()] = AxisSpec::Periodic;
+    }
+    for w in &parts.walls {
+        let a = w.axis.index();
+        check(
+            a < d,
+            "scene.walls.axis",
+            format!("{:?}", w.axis),
+            "names an axis the scene does not have",
+        )?;
+        let velocity = optional_vector("scene.walls.velocity", &w.velocity, d)?;
+        check(
+            velocity[a] == 0.0,
+            "scene.walls.velocity",
+            format!("{:?}", w.velocity),
+            "must be tangential (zero along the wall's axis)",
+        )?;
+        let mut spec = WallSpec::moving(velocity);
+        spec.free_slip = w.free_slip;
+        spec.body_force_curvature = w.body_force_curvature;
+        spec.reflection = match w.reflection {
+            ReflectionName::Mirror => Reflection::Mirror,
+            ReflectionName::Point => Reflection::Point,
+        };
+        match &mut axes[a] {
+            AxisSpec::Periodic => {
+                return Err(Error::config(
+                    "scene.walls.axis",
+                    format!("{:?}", w.axis),
+                    "is periodic; a wall needs a non-periodic axis",
+                ))
+            }
+            AxisSpec::Walls(lower, upper) => {
+                let slot = if w.side == Side::Lower { lower } else { upper };
+                check(
+                    slot.is_none(),
+                    "scene.walls",
+                    format!("{:?} {:?}", w.axis, w.side),
+                    "names the same wall twice",
+                )?;
+                *slot = Some(spec);
+            }
+        }
+    }
+    let mut regions = Vec::new();
+    for r in &parts.regions {
+        let lo = vector("scene.regions.lo", &r.lo, d)?;
+        let hi = vector("scene.regions.hi", &r.hi, d)?;
+        check(
+            (0..d).all(|a| lo[a] < hi[a]),
+            "scene.regions",
+            format!("{:?} .. {:?}", r.lo, r.hi),
+            "lo must lie below hi on every axis",
+        )?;
+        regions.push(Region { lo, hi });
+    }
+    if regions.is_empty() {
+        let mut hi = origin;
+        for a in 0..d {
+            hi[a] += extent[a];
+        }
+        regions.push(Region { lo: origin, hi });
+    }
+    let body_force = optional_vector("scene.body_force", &parts.body_force, d)?;
+    if let Some(tol) = parts.steady_tolerance {
+        check(
+            tol.is_finite() && tol > 0.0,
+            "scene.steady_tolerance",
+            tol,
+            "must be positive",
+        )?;
+    }
+    let (velocity, pressure) = profile(&parts.velocity, origin, d, parts.rho0)?;
+    let nu = parts.velocity_scale * parts.length_scale / s.re;
+    Ok(Scene {
+        case: s.case.clone(),
+        dim: d,
+        origin,
+        extent,
+        axes,
+        dx,
+        regions,
+        velocity,
+        pressure,
+        body_force,
+        rho0: parts.rho0,
+        nu,
+        physics: s.physics(parts.velocity_scale, parts.rho0),
+        output_times: s.output_times(),
+        velocity_scale: parts.velocity_scale,
+        length_scale: parts.length_scale,
+        exact: None,
+        error_decay: 0.0,
+        monitor: s.monitor(),
+        steady_tolerance: parts.steady_tolerance,
+        threads: s.threads,
+        keep_particles: true,
+    })
+}
+
+/// The initial velocity (and pressure) fields of a profile.
+fn profile(
+    p: &Profile,
+    origin: [f64; 3],
+    d: usize,
+    rho0: f64,
+) -> Result<(Option<VectorField>, Option<ScalarField>)> {
+    Ok(match p {
+        Profile::Rest => (None, None),
+        Profile::Uniform { value } => {
+            let v = vector("scene.velocity.value", value, d)?;
+            (Some(Arc::new(move |_, _| v)), None)
+        }
+        Profile::Shear { rate } => {
+            let rate = *rate;
+            check(
+                rate.is_finite(),
+                "scene.velocity.rate",
+                rate,
+                "must be finite",
+            )?;
+            let y0 = origin[1];
+            (
+                Some(Arc::new(move |x, _| [rate * (x[1] - y0), 0.0, 0.0])),
+                None,
+            )
+        }
+        Profile::TaylorGreen {
+            amplitude,
+            wavelength,
+        } => {
+            let (u, l) = (*amplitude, *wavelength);
+            check(
+                u.is_finite(),
+                "scene.velocity.amplitude",
+                u,
+                "must be finite",
+            )?;
+            check(
+                l.is_finite() && l > 0.0,
+                "scene.velocity.wavelength",
+                l,
+                "must be positive",
+            )?;
+            let k = 2.0 * PI / l;
+            let velocity: VectorField = Arc::new(move |x, _| {
+                let (sx, cx) = (k * (x[0] - origin[0])).sin_cos();
+                let (sy, cy) = (k * (x[1] - origin[1])).sin_cos();
+                [-u * cx * sy, u * sx * cy, 0.0]
+            });
+            let pressure: ScalarField = Arc::new(move |x| {
+                -0.25
+                    * rho0
+                    * u
+                    * u
+                    * ((2.0 * k * (x[0] - origin[0])).cos() + (2.0 * k * (x[1] - origin[1])).cos())
+            });
+            (Some(velocity), Some(pressure))
+        }
+    })
+}
+
+/// The particles at the last output, coloured by speed (2D).
+fn figure(scene: &Scene, record: &RunRecord) -> Result<Vec<u8>> {
+    let bounds = [
+        scene.origin[0],
+        scene.origin[0] + scene.extent[0],
+        scene.origin[1],
+        scene.origin[1] + scene.extent[1],
+    ];
+    let empty = crate::scene::Frame {
+        t: 0.0,
+        x: Vec::new(),
+        v: Vec::new(),
+        rho: Vec::new(),
+        p: Vec::new(),
+    };
+    let f = record.frames.last().unwrap_or(&empty);
+    crate::plot::speed_scatter_png(f, bounds, &format!("{} at t = {:.4}", scene.case, f.t))
+}
