@@ -379,8 +379,8 @@ impl<S: Space> Term<S> for AnyContinuity {
         acc.drho += match inverse_symmetric::<S>(&r.m) {
             Some(inv) => {
                 let mut div = S::Real::ZERO;
-                for c in 0..S::DIM {
-                    div += r.g[c].dot(inv[c]);
+                for (g, row) in r.g.iter().zip(&inv).take(S::DIM) {
+                    div += g.dot(*row);
                 }
                 -d.rho * div
             }
@@ -422,12 +422,12 @@ fn inverse_symmetric<S: Space>(m: &[S::Vector; 3]) -> Option<[S::Vector; 3]> {
             inv[1][0] = -e(1, 0) * r;
         }
         _ => {
-            for a in 0..3 {
+            for (a, row) in inv.iter_mut().enumerate() {
+                let (a1, a2) = ((a + 1) % 3, (a + 2) % 3);
                 for b in 0..3 {
                     // Cofactor of (b, a), cyclic indices.
                     let (b1, b2) = ((b + 1) % 3, (b + 2) % 3);
-                    let (a1, a2) = ((a + 1) % 3, (a + 2) % 3);
-                    inv[a][b] = (e(b1, a1) * e(b2, a2) - e(b1, a2) * e(b2, a1)) * r;
+                    row[b] = (e(b1, a1) * e(b2, a2) - e(b1, a2) * e(b2, a1)) * r;
                 }
             }
         }

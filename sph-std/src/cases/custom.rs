@@ -253,12 +253,12 @@ fn build(s: &Settings) -> Result<Scene> {
     }
     let dx = parts.length_scale / s.resolution as f64;
     let mut particles = 1.0;
-    for a in 0..d {
-        let cells = extent[a] / dx;
+    for &length in extent.iter().take(d) {
+        let cells = length / dx;
         check(
-            extent[a] > 0.0 && (cells - cells.round()).abs() <= 1e-6 * cells.max(1.0),
+            length > 0.0 && (cells - cells.round()).abs() <= 1e-6 * cells.max(1.0),
             "scene.extent",
-            extent[a],
+            length,
             &format!(
                 "must be positive and a whole number of dx = length_scale / resolution = {dx:e} (here {cells} dx)"
             ),
