@@ -448,6 +448,12 @@ fn profile(
 
 /// The particles at the last output, coloured by speed (2D).
 fn figure(scene: &Scene, record: &RunRecord) -> Result<Vec<u8>> {
+    speed_figure(scene, record, "custom scene")
+}
+
+/// The particles at the last output over the scene's box, coloured by
+/// speed, titled `name at t = ...` (2D; the first two axes in 3D).
+pub(crate) fn speed_figure(scene: &Scene, record: &RunRecord, name: &str) -> Result<Vec<u8>> {
     let bounds = [
         scene.origin[0],
         scene.origin[0] + scene.extent[0],
@@ -462,5 +468,5 @@ fn figure(scene: &Scene, record: &RunRecord) -> Result<Vec<u8>> {
         p: Vec::new(),
     };
     let f = record.frames.last().unwrap_or(&empty);
-    crate::plot::speed_scatter_png(f, bounds, &format!("{} at t = {:.4}", scene.case, f.t))
+    crate::plot::speed_scatter_png(f, bounds, &format!("{name} at t = {:.2}", f.t))
 }

@@ -84,23 +84,6 @@ fn build(s: &Settings) -> Result<Scene> {
 }
 
 /// The particles at the last output, coloured by speed.
-fn figure(_scene: &Scene, record: &RunRecord) -> Result<Vec<u8>> {
-    match record.frames.last() {
-        Some(f) => crate::plot::speed_scatter_png(
-            f,
-            [0.0, 1.0, 0.0, 1.0],
-            &format!("Taylor-Green vortex at t = {:.2}", f.t),
-        ),
-        None => crate::plot::speed_scatter_png(
-            &crate::scene::Frame {
-                t: 0.0,
-                x: Vec::new(),
-                v: Vec::new(),
-                rho: Vec::new(),
-                p: Vec::new(),
-            },
-            [0.0, 1.0, 0.0, 1.0],
-            "Taylor-Green vortex (no output)",
-        ),
-    }
+fn figure(scene: &Scene, record: &RunRecord) -> Result<Vec<u8>> {
+    super::custom::speed_figure(scene, record, "Taylor-Green vortex")
 }
