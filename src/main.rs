@@ -2,6 +2,8 @@
 
 use std::path::PathBuf;
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 
 use clap::{Args, Parser, Subcommand};
 use sph_std::cases::{self, Settings};
@@ -11,6 +13,38 @@ use sph_std::config::{
 use sph_std::error::Result;
 use sph_std::scene::Regularise;
 use sph_std::{bench, couette, output, progress, report, studies};
+
+/// `println!` for results: a closed pipe on stdout ends the program quietly
+/// with status 0 (as Unix tools do), any other write error with one line on
+/// stderr and status 1; never a panic.
+macro_rules! outln {
+    () => {
+        stdout_write(format_args!("\n"))
+    };
+    ($($arg:tt)*) => {
+        stdout_write(format_args!("{}\n", format_args!($($arg)*)))
+    };
+}
+
+/// `print!` with the rules of [`outln!`].
+macro_rules! out {
+    ($($arg:tt)*) => {
+        stdout_write(format_args!($($arg)*))
+    };
+}
+
+/// Writes to stdout under the rules of [`outln!`].
+fn stdout_write(args: std::fmt::Arguments<'_>) {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    if let Err(e) = out.write_fmt(args) {
+        if e.kind() == std::io::ErrorKind::BrokenPipe {
+            std::process::exit(0);
+        }
+        eprintln!("sph: error: cannot write to standard output: {e}");
+        std::process::exit(1);
+    }
+}
 
 #[derive(Parser, Debug)]
 #[command(
@@ -70,6 +104,9 @@ struct RunArgs {
     /// Output directory [default: out/<case>].
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
+    /// Replace a non-empty output directory that sph did not write.
+    #[arg(long)]
+    overwrite: bool,
     /// Particles across the case's reference length.
     #[arg(long, value_name = "N")]
     resolution: Option<usize>,
@@ -171,7 +208,7 @@ fn run_scene(args: &RunArgs) -> Result<()> {
         .clone()
         .unwrap_or_else(|| PathBuf::from("out").join(&settings.case));
     let bar = progress::Bar::new(&settings.case, args.quiet);
-    let (record, reference, written) = output::in_dir(&dir, || {
+    let (record, reference, written) = output::in_dir(&dir, args.overwrite, |stage| {
         let record = sph_std::scene::run(&scene, &bar)?;
         let case = cases::find(&settings.case)?;
         let figure = (case.figure)(&scene, &record)?;
@@ -181,29 +218,38 @@ fn run_scene(args: &RunArgs) -> Result<()> {
             Some(&settings),
             Some(figure),
             reference.as_ref(),
-            &dir,
+            stage,
             args.vtk,
         )?;
         Ok((record, reference, written))
     })?;
     if !args.quiet {
         let p = &record.physics;
-        println!(
+        outln!(
             "{}: {} particles ({} across), {} kernel, beta {}, {} viscosity, {} density, regularise {}, {}/{}",
             record.case, record.n_fluid, settings.resolution, p.kernel, p.beta, p.viscosity, p.density, p.regularise, p.precision, p.math
         );
-        println!(
+        outln!(
             "dt = {:.4e} s, {} steps, {} thread(s), {:.2} s",
-            record.dt, record.steps, record.threads, record.wall_seconds
+            record.dt,
+            record.steps,
+            record.threads,
+            record.wall_seconds
         );
-        println!();
-        println!(
+        outln!();
+        outln!(
             "{:>10} {:>12} {:>11} {:>11} {:>9} {:>10} {:>10}",
-            "t [s]", "kinetic", "Linf", "L2", "min dx", "max drho", "max Mach"
+            "t [s]",
+            "kinetic",
+            "Linf",
+            "L2",
+            "min dx",
+            "max drho",
+            "max Mach"
         );
         for d in &record.outputs {
             let opt = |x: Option<f64>| x.map_or("-".to_string(), |v| format!("{v:.3e}"));
-            println!(
+            outln!(
                 "{:>10.4} {:>12.5e} {:>11} {:>11} {:>9.3} {:>10.2e} {:>10.3}",
                 d.t,
                 d.kinetic_energy,
@@ -215,7 +261,7 @@ fn run_scene(args: &RunArgs) -> Result<()> {
             );
         }
         if record.steady {
-            println!("Steady state reached (kinetic energy change below the case's tolerance).");
+            outln!("Steady state reached (kinetic energy change below the case's tolerance).");
         }
         if let Some(r) = &reference {
             let worst = r.points.iter().max_by(|a, b| {
@@ -224,7 +270,7 @@ fn run_scene(args: &RunArgs) -> Result<()> {
                     .total_cmp(&(b.sph - b.reference).abs())
             });
             if let Some(w) = worst {
-                println!(
+                outln!(
                     "Against {}: largest deviation {:.3e} of the velocity scale at t = {:.4}, {} at {} ({} points)",
                     r.source,
                     r.max_deviation,
@@ -239,7 +285,7 @@ fn run_scene(args: &RunArgs) -> Result<()> {
             .iter()
             .filter_map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
             .collect();
-        println!("Wrote {} to {}", names.join(", "), dir.display());
+        outln!("Wrote {} to {}", names.join(", "), dir.display());
     }
     match &record.stop {
         None => Ok(()),
@@ -249,7 +295,7 @@ fn run_scene(args: &RunArgs) -> Result<()> {
 
 fn list_cases() -> Result<()> {
     for c in cases::CASES {
-        println!("{:<20} {}", c.name, c.about);
+        outln!("{:<20} {}", c.name, c.about);
     }
     Ok(())
 }
@@ -262,6 +308,9 @@ struct StudyArgs {
     /// Output directory [default: out/<command>].
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
+    /// Replace a non-empty output directory that sph did not write.
+    #[arg(long)]
+    overwrite: bool,
     /// Worker threads per run; 0 = all cores [default: 0].
     #[arg(long, value_name = "T", default_value_t = 0, hide_default_value = true)]
     threads: usize,
@@ -287,17 +336,25 @@ fn run_pareto(args: &StudyArgs) -> Result<()> {
     };
     let configs = studies::pareto_configs(resolutions);
     let bar = progress::Bar::new("pareto runs", args.quiet);
-    let (rows, written) = output::in_dir(&dir, || {
+    let (rows, written) = output::in_dir(&dir, args.overwrite, |stage| {
         let rows = studies::pareto(&configs, &bar)?;
-        let written = studies::write_pareto(&rows, &dir)?;
+        let written = studies::write_pareto(&rows, stage)?;
         Ok((rows, written))
     })?;
-    println!(
+    outln!(
         "{:<12} {:>5} {:>4} {:>10} {:>4} {:>5} {:>11} {:>9} {:>12}  frontier",
-        "kernel", "beta", "prec", "math", "dt", "N", "Linf/U", "seconds", "p-steps/s"
+        "kernel",
+        "beta",
+        "prec",
+        "math",
+        "dt",
+        "N",
+        "Linf/U",
+        "seconds",
+        "p-steps/s"
     );
     for r in &rows {
-        println!(
+        outln!(
             "{:<12} {:>5} {:>4} {:>10} {:>4} {:>5} {:>11.3e} {:>9.3} {:>12.3e}  {}",
             r.kernel.name(),
             r.beta,
@@ -311,12 +368,12 @@ fn run_pareto(args: &StudyArgs) -> Result<()> {
             if r.pareto { "*" } else { "" }
         );
     }
-    print!("{}", studies::cheapest_for(&rows, &[0.1, 0.01, 0.001]));
+    out!("{}", studies::cheapest_for(&rows, &[0.1, 0.01, 0.001]));
     let names: Vec<String> = written
         .iter()
         .filter_map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
         .collect();
-    println!("Wrote {} to {}", names.join(", "), dir.display());
+    outln!("Wrote {} to {}", names.join(", "), dir.display());
     Ok(())
 }
 
@@ -329,17 +386,17 @@ fn run_convergence(args: &StudyArgs) -> Result<()> {
     };
     plan.threads = args.threads;
     let bar = progress::Bar::new("convergence runs", args.quiet);
-    let (report, written) = output::in_dir(&dir, || {
+    let (report, written) = output::in_dir(&dir, args.overwrite, |stage| {
         let report = studies::convergence(&plan, &bar)?;
-        let written = studies::write_convergence(&report, &dir)?;
+        let written = studies::write_convergence(&report, stage)?;
         Ok((report, written))
     })?;
-    print!("{}", studies::orders_table(&report));
+    out!("{}", studies::orders_table(&report));
     let names: Vec<String> = written
         .iter()
         .filter_map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
         .collect();
-    println!("Wrote {} to {}", names.join(", "), dir.display());
+    outln!("Wrote {} to {}", names.join(", "), dir.display());
     Ok(())
 }
 
@@ -423,17 +480,21 @@ fn run_bench(args: &BenchArgs) -> Result<()> {
     };
     if args.sweep {
         let (rows, slope) = bench::sweep(&config, &args.sizes)?;
-        println!(
+        outln!(
             "{} scene, {} thread(s): time per step against N",
             args.scene.name(),
             rows[0].report.threads
         );
-        println!(
+        outln!(
             "{:>10}  {:>8}  {:>14}  {:>14}  {:>8}",
-            "N", "steps", "s / step", "p-steps / s", "B / p"
+            "N",
+            "steps",
+            "s / step",
+            "p-steps / s",
+            "B / p"
         );
         for r in &rows {
-            println!(
+            outln!(
                 "{:>10}  {:>8}  {:>14.4e}  {:>14.4e}  {:>8.0}",
                 r.report.n,
                 r.report.steps,
@@ -442,41 +503,46 @@ fn run_bench(args: &BenchArgs) -> Result<()> {
                 r.report.bytes_per_particle
             );
         }
-        println!("log-log slope of time per step against N: {slope:.3}");
+        outln!("log-log slope of time per step against N: {slope:.3}");
         if args.json {
             let line = serde_json::json!({ "rows": rows, "slope": slope });
-            println!("{line}");
+            outln!("{line}");
         }
         return Ok(());
     }
     let report = bench::run(&config)?;
-    println!(
+    outln!(
         "{} scene: {} particles, {} thread(s), {} steps in {:.3} s",
-        report.scene, report.n, report.threads, report.steps, report.seconds
+        report.scene,
+        report.n,
+        report.threads,
+        report.steps,
+        report.seconds
     );
-    println!(
+    outln!(
         "  neighbours per particle (itself included): {:.2}",
         report.neighbours_mean
     );
-    println!(
+    outln!(
         "  particle-steps per second:                 {:.4e}",
         report.particle_steps_per_s
     );
-    println!(
+    outln!(
         "  pair interactions per second:              {:.4e} ({} passes per step)",
-        report.pairs_per_s, report.passes_per_step
+        report.pairs_per_s,
+        report.passes_per_step
     );
-    println!(
+    outln!(
         "  nanoseconds per pair:                      {:.2}",
         report.ns_per_pair
     );
-    println!(
+    outln!(
         "  bytes per particle:                        {:.0}",
         report.bytes_per_particle
     );
     if args.json {
         match serde_json::to_string(&report) {
-            Ok(line) => println!("{line}"),
+            Ok(line) => outln!("{line}"),
             Err(e) => {
                 return Err(sph_std::error::Error::config(
                     "json",
@@ -501,6 +567,9 @@ struct CouetteArgs {
     /// Output directory [default: out/couette].
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
+    /// Replace a non-empty output directory that sph did not write.
+    #[arg(long)]
+    overwrite: bool,
     /// Fluid particles across the gap, 4 to 4000 [default: 40].
     #[arg(long, value_name = "N")]
     particles_across: Option<usize>,
@@ -615,6 +684,7 @@ impl CouetteArgs {
         );
         c.vtk |= self.vtk;
         c.quiet |= self.quiet;
+        c.clip_default_output_times();
         c.validate()?;
         Ok(c)
     }
@@ -623,19 +693,19 @@ impl CouetteArgs {
 fn run_couette(args: &CouetteArgs) -> Result<()> {
     let config = args.config()?;
     let bar = progress::Bar::new("couette", config.quiet);
-    let (run, written) = output::in_dir(&config.out, || {
+    let (run, written) = output::in_dir(&config.out, args.overwrite, |stage| {
         let run = couette::run(&config, &bar)?;
-        let written = output::write_couette(&run, &config.out)?;
+        let written = output::write_couette(&run, stage)?;
         Ok((run, written))
     })?;
     if !config.quiet {
         let g = &run.geometry;
         let c = &run.config;
-        println!(
+        outln!(
             "Couette flow: {} kernel, beta {}, {} particles across ({} x {} = {} fluid), {} viscosity, {} density, {}/{}",
             c.kernel, c.beta, c.particles_across, g.nx, c.particles_across, g.n_fluid, c.viscosity, c.density, c.precision, c.math
         );
-        println!(
+        outln!(
             "dt = {:.4e} s ({} x the {} limit), {} steps, {} thread(s), {:.2} s",
             run.dt_max,
             c.dt_factor,
@@ -648,35 +718,73 @@ fn run_couette(args: &CouetteArgs) -> Result<()> {
             run.threads,
             run.wall_seconds
         );
-        println!();
-        print!("{}", output::error_table(&run));
+        outln!();
+        out!("{}", output::error_table(&run));
         let (linf, l2) = run.headline();
-        println!();
-        println!(
-            "Largest error over t* >= {}: Linf {:.3e} U, L2 {:.3e} U",
-            couette::HEADLINE_T_STAR,
-            linf,
-            l2
-        );
+        outln!();
+        if run.has_headline() {
+            outln!(
+                "Largest error over t* >= {}: Linf {:.3e} U, L2 {:.3e} U",
+                couette::HEADLINE_T_STAR,
+                linf,
+                l2
+            );
+        } else {
+            outln!(
+                "No output time at t* >= {}: no headline error (the table above has every output)",
+                couette::HEADLINE_T_STAR
+            );
+        }
         let names: Vec<String> = written
             .iter()
             .filter_map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
             .collect();
-        println!("Wrote {} to {}", names.join(", "), config.out.display());
+        outln!("Wrote {} to {}", names.join(", "), config.out.display());
     }
     Ok(())
 }
 
 fn main() -> ExitCode {
-    // SIGINT: a scene run stops at the next step and still writes its
-    // results (marked incomplete).
-    let _ = ctrlc::set_handler(progress::request_stop);
+    // SIGINT and SIGTERM: a scene run stops at the next step and still
+    // publishes its results (marked incomplete), then exits 130 or 143.
+    let interrupted = Arc::new(AtomicBool::new(false));
+    let terminated = Arc::new(AtomicBool::new(false));
+    for (signal, which) in [
+        (signal_hook::consts::SIGINT, &interrupted),
+        (signal_hook::consts::SIGTERM, &terminated),
+    ] {
+        // A second signal while the run is stopping ends the process at once.
+        let _ = signal_hook::flag::register_conditional_shutdown(
+            signal,
+            128 + signal,
+            Arc::clone(which),
+        );
+        let _ = signal_hook::flag::register(signal, progress::stop_flag());
+        let _ = signal_hook::flag::register(signal, Arc::clone(which));
+    }
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
         Err(e) if !e.use_stderr() => {
             // --help and --version.
             let _ = e.print();
             return ExitCode::SUCCESS;
+        }
+        Err(e)
+            if matches!(
+                e.kind(),
+                clap::error::ErrorKind::MissingSubcommand
+                    | clap::error::ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand
+            ) =>
+        {
+            let names: Vec<String> = <Cli as clap::CommandFactory>::command()
+                .get_subcommands()
+                .map(|c| c.get_name().to_string())
+                .collect();
+            eprintln!(
+                "sph: error: no command given; the commands are {} (see sph --help)",
+                names.join(", ")
+            );
+            return ExitCode::from(2);
         }
         Err(e) => {
             // One line: what was wrong, with the accepted values.
@@ -702,7 +810,14 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("sph: error: {e}");
-            ExitCode::from(e.exit_code() as u8)
+            // 128 + the signal number, as shells report a signal's end.
+            if terminated.load(Ordering::SeqCst) {
+                ExitCode::from(143)
+            } else if interrupted.load(Ordering::SeqCst) {
+                ExitCode::from(130)
+            } else {
+                ExitCode::from(e.exit_code() as u8)
+            }
         }
     }
 }

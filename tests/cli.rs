@@ -308,7 +308,7 @@ fn sigint_stops_a_scene_run_and_publishes_what_it_computed() {
         .unwrap();
     assert!(killed.success());
     let result = child.wait_with_output().unwrap();
-    assert_eq!(result.status.code(), Some(1));
+    assert_eq!(result.status.code(), Some(130));
     let err = String::from_utf8_lossy(&result.stderr);
     assert!(err.contains("interrupted"), "{err}");
     let summary: serde_json::Value =
@@ -318,4 +318,184 @@ fn sigint_stops_a_scene_run_and_publishes_what_it_computed() {
         assert!(out.join(name).is_file(), "{name} missing");
     }
     let _ = std::fs::remove_dir_all(&out);
+}
+
+#[test]
+fn a_closed_or_full_stdout_ends_quietly_without_a_panic() {
+    // `sph couette | true`: the reader is gone before the table is printed.
+    let out = scratch("pipe");
+    let mut child = sph()
+        .args(["couette", "--particles-across", "16", "--t-end", "0.05"])
+        .arg("--out")
+        .arg(&out)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let result = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&result.stderr);
+    assert_eq!(result.status.code(), Some(0), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    let _ = std::fs::remove_dir_all(&out);
+    // A full device: one line and status 1.
+    if Path::new("/dev/full").exists() {
+        let full = std::fs::OpenOptions::new()
+            .write(true)
+            .open("/dev/full")
+            .unwrap();
+        let result = sph().arg("cases").stdout(full).output().unwrap();
+        let err = String::from_utf8_lossy(&result.stderr);
+        assert_eq!(result.status.code(), Some(1), "{err}");
+        assert!(err.contains("cannot write to standard output"), "{err}");
+        assert!(!err.contains("panicked"), "{err}");
+    }
+}
+
+/// Every file name in `dir`, sorted.
+fn listing(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    names
+}
+
+#[test]
+fn an_output_set_is_replaced_whole_or_not_at_all() {
+    let out = scratch("sets");
+    // A run with VTK snapshots, then one without: none of the first run's
+    // snapshots survive beside the second run's summary.
+    assert!(quick_run(&out, &["--vtk"]).status.success());
+    assert!(listing(&out).iter().any(|n| n.ends_with(".vtu")));
+    assert!(quick_run(&out, &[]).status.success());
+    assert_eq!(
+        listing(&out),
+        [
+            ".sph-output",
+            "config.toml",
+            "profile.csv",
+            "profiles.png",
+            "summary.json"
+        ]
+    );
+    // A run that diverges leaves the previous set byte for byte.
+    let before = std::fs::read(out.join("summary.json")).unwrap();
+    let result = quick_run(&out, &["--u-wall", "10", "--nu", "1e-9"]);
+    assert_eq!(result.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&result.stderr).contains("nothing written"));
+    assert_eq!(std::fs::read(out.join("summary.json")).unwrap(), before);
+    // Nothing temporary is left beside it.
+    let parent = out.parent().unwrap();
+    let stem = out.file_name().unwrap().to_string_lossy().into_owned();
+    let leftovers: Vec<String> = listing(parent)
+        .into_iter()
+        .filter(|n| n.starts_with(&format!(".{stem}.")))
+        .collect();
+    assert!(leftovers.is_empty(), "{leftovers:?}");
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+#[test]
+fn a_directory_sph_did_not_write_is_refused_unless_overwrite() {
+    let out = scratch("foreign");
+    std::fs::create_dir_all(&out).unwrap();
+    std::fs::write(out.join("thesis.tex"), "mine").unwrap();
+    let result = quick_run(&out, &[]);
+    assert_eq!(result.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&result.stderr);
+    assert!(err.contains("--overwrite") && err.contains("out"), "{err}");
+    assert_eq!(listing(&out), ["thesis.tex"]);
+    assert!(quick_run(&out, &["--overwrite"]).status.success());
+    assert!(!out.join("thesis.tex").exists());
+    for root in ["/", "~"] {
+        let dir = if root == "~" {
+            std::env::var("HOME").unwrap_or_else(|_| "/".into())
+        } else {
+            root.to_string()
+        };
+        let result = sph()
+            .args(["couette", "--quiet", "--out", &dir])
+            .output()
+            .unwrap();
+        assert_eq!(result.status.code(), Some(2), "{dir}");
+        assert!(String::from_utf8_lossy(&result.stderr).contains("home directory"));
+    }
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+#[test]
+fn absurd_values_are_refused_in_one_short_line() {
+    // --shift 2e305 used to hang in the plotting code.
+    let out = scratch("shift");
+    let result = quick_run(&out, &["--shift", "2e305"]);
+    assert_eq!(result.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&result.stderr);
+    assert!(err.contains("`shift`") && err.len() < 300, "{err}");
+    assert!(!out.exists());
+    // A shorter run needs no output times of its own.
+    let result = sph()
+        .args([
+            "couette",
+            "--quiet",
+            "--particles-across",
+            "16",
+            "--t-end",
+            "0.05",
+        ])
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(
+        result.status.success(),
+        "{}",
+        String::from_utf8_lossy(&result.stderr)
+    );
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+#[cfg(unix)]
+#[test]
+fn sigterm_stops_a_scene_run_with_status_143() {
+    let out = scratch("sigterm");
+    let child = sph()
+        .args([
+            "run",
+            "taylor-green",
+            "--quiet",
+            "--resolution",
+            "128",
+            "--threads",
+            "1",
+        ])
+        .arg("--out")
+        .arg(&out)
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(2500));
+    let killed = Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    let result = child.wait_with_output().unwrap();
+    assert_eq!(result.status.code(), Some(143));
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["complete"], false);
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+#[test]
+fn no_command_names_the_commands() {
+    let result = sph().output().unwrap();
+    assert_eq!(result.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&result.stderr);
+    assert!(
+        err.contains("no command given") && err.contains("couette") && err.contains("run"),
+        "{err}"
+    );
 }

@@ -170,7 +170,7 @@ fn reynolds_1000_is_reported_not_hidden() {
         ..short(20, 0.02)
     };
     match couette::run(&cfg, &Silent) {
-        Err(sph::std::error::Error::Stopped(reason)) => {
+        Err(sph::std::error::Error::Diverged(reason)) => {
             let step: u64 = reason
                 .split("unstable at step ")
                 .nth(1)

@@ -338,6 +338,12 @@ impl CouetteConfig {
             "must be positive (metres)",
         )?;
         check(
+            self.shift.is_finite() && self.shift.abs() <= 1000.0 * self.gap,
+            "shift",
+            self.shift,
+            "must be finite and at most 1000 gaps from the origin (further out the plates' positions lose their digits)",
+        )?;
+        check(
             self.nu.is_finite() && self.nu > 0.0,
             "nu",
             self.nu,
@@ -403,6 +409,16 @@ impl CouetteConfig {
             last = t;
         }
         Ok(())
+    }
+
+    /// Drops the default output times beyond `t_end` when the output times
+    /// are the defaults (a shorter run then needs no list of its own);
+    /// output times a user chose are left for [`Self::validate`] to check.
+    pub fn clip_default_output_times(&mut self) {
+        if self.output_times == default_output_times() {
+            let t_end = self.t_end;
+            self.output_times.retain(|&t| t <= t_end);
+        }
     }
 
     /// The output times with `t_end` appended when missing.

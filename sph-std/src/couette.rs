@@ -220,6 +220,12 @@ impl CouetteRun {
             .collect()
     }
 
+    /// Whether any output time has `t* >= HEADLINE_T_STAR` (otherwise
+    /// [`Self::headline`] has nothing to report and returns zeros).
+    pub fn has_headline(&self) -> bool {
+        self.errors().iter().any(|e| e.t_star >= HEADLINE_T_STAR)
+    }
+
     /// Largest `(linf, l2)` over output times with `t* >= HEADLINE_T_STAR`.
     pub fn headline(&self) -> (f64, f64) {
         self.errors()
@@ -308,7 +314,7 @@ pub fn run(cfg: &CouetteConfig, progress: &dyn Progress) -> Result<CouetteRun> {
     let record = crate::scene::run(&scene(cfg), progress)?;
     if let Some(stop) = &record.stop {
         // The Couette command reports a divergence as the core's error.
-        return Err(Error::Stopped(stop.reason.clone()));
+        return Err(Error::Diverged(stop.reason.clone()));
     }
     let profiles = record
         .frames

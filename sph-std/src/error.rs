@@ -26,6 +26,9 @@ pub enum Error {
     },
     /// The core refused the scene or the run diverged.
     Core(sph_core::error::Error),
+    /// A command that publishes only complete runs (`sph couette`) stopped
+    /// early: nothing was written and a previous output set is unchanged.
+    Diverged(String),
     /// A run stopped early (diverged, or its state degenerated); its
     /// results up to then were written with `complete: false`.
     Stopped(String),
@@ -41,9 +44,17 @@ impl Error {
         value: impl fmt::Display,
         rule: impl Into<String>,
     ) -> Self {
+        // An offending value is quoted, not echoed in full: a huge one
+        // (a number with 300 digits, a 50 MB string) is cut.
+        const MAX: usize = 64;
+        let mut value = value.to_string();
+        if value.chars().count() > MAX {
+            let cut: String = value.chars().take(MAX).collect();
+            value = format!("{cut}... ({} characters)", value.chars().count());
+        }
         Error::Config {
             key: key.into(),
-            value: value.to_string(),
+            value,
             rule: rule.into(),
         }
     }
@@ -61,7 +72,9 @@ impl Error {
     /// the core rejects), 1 for a run that went wrong (diverged).
     pub fn exit_code(&self) -> i32 {
         match self {
-            Error::Core(sph_core::error::Error::Unstable { .. }) | Error::Stopped(_) => 1,
+            Error::Core(sph_core::error::Error::Unstable { .. })
+            | Error::Stopped(_)
+            | Error::Diverged(_) => 1,
             _ => 2,
         }
     }
@@ -80,6 +93,10 @@ impl fmt::Display for Error {
             Error::Stopped(reason) => {
                 write!(f, "{reason} (results up to then written, complete: false)")
             }
+            Error::Diverged(reason) => write!(
+                f,
+                "{reason} (nothing written: this command publishes complete runs only)"
+            ),
         }
     }
 }
@@ -89,7 +106,7 @@ impl std::error::Error for Error {
         match self {
             Error::Io { source, .. } => Some(source),
             Error::Core(e) => Some(e),
-            Error::Config { .. } | Error::Stopped(_) => None,
+            Error::Config { .. } | Error::Stopped(_) | Error::Diverged(_) => None,
         }
     }
 }

@@ -1,6 +1,7 @@
-//! Output files, each written atomically: a temporary file in the same
-//! directory, then a rename. An interrupted run leaves complete files (old or
-//! new), never half-written ones.
+//! Output files and output sets. A run writes its whole set into a staging
+//! directory and publishes it in one rename ([`in_dir`]): never a mix of two
+//! runs' files, never a partial set, never temporary files left behind.
+//! Single files are also written atomically ([`write_atomic`]).
 
 use std::fmt::Write as _;
 use std::fs;
@@ -31,39 +32,132 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     })
 }
 
-/// Creates the output directory if needed and checks that it is writable,
-/// before any work is done. Returns whether it was created (so a failed run
-/// can remove it again and leave nothing behind).
+/// The file sph writes into every output directory it publishes: a
+/// directory holding it may be replaced by a new run; any other non-empty
+/// directory only with `overwrite`.
+pub const MARKER: &str = ".sph-output";
+
+/// Refuses an output directory sph must not replace: the file-system root,
+/// the home directory itself, a file, or (without `overwrite`) a non-empty
+/// directory that sph did not write.
 ///
 /// # Errors
-/// [`Error::Io`] if it cannot be created or written to.
-pub fn prepare_dir(dir: &Path) -> Result<bool> {
-    let existed = dir.is_dir();
-    fs::create_dir_all(dir).map_err(|e| Error::io("create output directory", dir, e))?;
-    let probe = dir.join(format!(".write-probe-{}", std::process::id()));
-    fs::write(&probe, b"").map_err(|e| Error::io("write to output directory", dir, e))?;
-    let _ = fs::remove_file(&probe);
-    Ok(!existed)
-}
-
-/// Removes `dir` if it is empty (used when a run fails after [`prepare_dir`] created it).
-pub fn remove_if_empty(dir: &Path) {
-    let _ = fs::remove_dir(dir);
-}
-
-/// Prepares `dir` (see [`prepare_dir`]), runs `work`, and if `work` fails
-/// removes the directory again when this call created it: a failed run
-/// leaves nothing behind.
-///
-/// # Errors
-/// Those of [`prepare_dir`] and of `work`.
-pub fn in_dir<T>(dir: &Path, work: impl FnOnce() -> Result<T>) -> Result<T> {
-    let created = prepare_dir(dir)?;
-    work().inspect_err(|_| {
-        if created {
-            remove_if_empty(dir);
+/// [`Error::Config`] naming `out`, its value and the rule.
+pub fn check_out_dir(dir: &Path, overwrite: bool) -> Result<()> {
+    let shown = dir.display().to_string();
+    if dir.as_os_str().is_empty() {
+        return Err(Error::config("out", "\"\"", "must name a directory"));
+    }
+    let resolved = fs::canonicalize(dir).unwrap_or_else(|_| dir.to_path_buf());
+    let home = std::env::var_os("HOME").map(PathBuf::from);
+    let home = home.map(|h| fs::canonicalize(&h).unwrap_or(h));
+    if resolved.parent().is_none() || home.as_deref() == Some(resolved.as_path()) {
+        return Err(Error::config(
+            "out",
+            shown,
+            "must not be the file-system root or the home directory itself (a run replaces its output directory)",
+        ));
+    }
+    if dir.exists() && !dir.is_dir() {
+        return Err(Error::config("out", shown, "exists and is not a directory"));
+    }
+    if dir.is_dir() && !overwrite && !dir.join(MARKER).exists() {
+        let empty = fs::read_dir(dir)
+            .map_err(|e| Error::io("read output directory", dir, e))?
+            .next()
+            .is_none();
+        if !empty {
+            return Err(Error::config(
+                "out",
+                shown,
+                "is a non-empty directory that sph did not write; choose another or pass --overwrite to replace it",
+            ));
         }
-    })
+    }
+    Ok(())
+}
+
+/// Runs `work` on a staging directory beside `dir` and publishes what it
+/// wrote as `dir` in one rename once it succeeds: an output set is a unit.
+///
+/// - `work` succeeds: the staging directory (plus [`MARKER`]) replaces
+///   `dir` as a whole; nothing of a previous set survives beside the new
+///   one. A run that stops early (state monitor, SIGINT) succeeds here and
+///   publishes what it computed, marked incomplete.
+/// - `work` fails (bad input, divergence, an I/O error, a full disk): the
+///   staging directory is removed and `dir` is left exactly as it was.
+///
+/// Staging directories of earlier processes that no longer run (killed
+/// mid-write) are removed first.
+///
+/// # Errors
+/// Those of [`check_out_dir`], [`Error::Io`] if the staging directory
+/// cannot be created or published, and those of `work`.
+pub fn in_dir<T>(dir: &Path, overwrite: bool, work: impl FnOnce(&Path) -> Result<T>) -> Result<T> {
+    check_out_dir(dir, overwrite)?;
+    let name = dir
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "out".to_string());
+    let parent = match dir.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    fs::create_dir_all(&parent).map_err(|e| Error::io("create output directory", &parent, e))?;
+    remove_stale(&parent, &name);
+    let pid = std::process::id();
+    let staging = parent.join(format!(".{name}.staging-{pid}"));
+    let _ = fs::remove_dir_all(&staging);
+    // The error names the directory the user asked for, not the staging one.
+    fs::create_dir(&staging).map_err(|e| Error::io("create output directory", dir, e))?;
+    let published = work(&staging).and_then(|value| {
+        write_atomic(&staging.join(MARKER), b"written by sph\n")?;
+        publish(&staging, dir, &parent.join(format!(".{name}.old-{pid}")))?;
+        Ok(value)
+    });
+    if published.is_err() {
+        let _ = fs::remove_dir_all(&staging);
+    }
+    published
+}
+
+/// Moves `staging` to `dir`, replacing a previous `dir` by way of `old`.
+fn publish(staging: &Path, dir: &Path, old: &Path) -> Result<()> {
+    if !dir.exists() {
+        return fs::rename(staging, dir).map_err(|e| Error::io("publish output directory", dir, e));
+    }
+    let _ = fs::remove_dir_all(old);
+    fs::rename(dir, old).map_err(|e| Error::io("replace output directory", dir, e))?;
+    if let Err(e) = fs::rename(staging, dir) {
+        // Put the previous set back.
+        let _ = fs::rename(old, dir);
+        return Err(Error::io("publish output directory", dir, e));
+    }
+    let _ = fs::remove_dir_all(old);
+    Ok(())
+}
+
+/// Removes `.NAME.staging-PID` and `.NAME.old-PID` directories in `parent`
+/// whose process no longer runs (where `/proc` tells).
+fn remove_stale(parent: &Path, name: &str) {
+    if !Path::new("/proc/self").exists() {
+        return;
+    }
+    let Ok(entries) = fs::read_dir(parent) else {
+        return;
+    };
+    for entry in entries.flatten() {
+        let file = entry.file_name().to_string_lossy().into_owned();
+        let pid = [".staging-", ".old-"].iter().find_map(|tag| {
+            file.strip_prefix(&format!(".{name}{tag}"))
+                .and_then(|p| p.parse::<u32>().ok())
+        });
+        if let Some(pid) = pid {
+            if pid != std::process::id() && !Path::new(&format!("/proc/{pid}")).exists() {
+                let _ = fs::remove_dir_all(entry.path());
+            }
+        }
+    }
 }
 
 #[derive(Serialize)]
@@ -113,8 +207,9 @@ struct Summary<'a> {
     wall_seconds: f64,
     storage_bytes: usize,
     headline_t_star: f64,
-    linf_error: f64,
-    l2_error: f64,
+    /// `null` when no output time has `t* >= headline_t_star`.
+    linf_error: Option<f64>,
+    l2_error: Option<f64>,
     errors: Vec<ErrorEntry>,
 }
 
@@ -160,8 +255,8 @@ pub fn summary_json(run: &CouetteRun) -> Result<String> {
         wall_seconds: run.wall_seconds,
         storage_bytes: run.storage_bytes,
         headline_t_star: HEADLINE_T_STAR,
-        linf_error: linf,
-        l2_error: l2,
+        linf_error: run.has_headline().then_some(linf),
+        l2_error: run.has_headline().then_some(l2),
         errors: run
             .errors()
             .iter()

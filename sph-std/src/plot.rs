@@ -27,6 +27,26 @@ fn plot_error(e: impl std::fmt::Display) -> Error {
     Error::config("plot", "profiles.png", format!("cannot draw the plot: {e}"))
 }
 
+/// Checks that an axis range can be drawn: finite, increasing, and wider
+/// than the round-off of its ends (plotters' tick search does not end on an
+/// infinite or empty range).
+fn drawable(lo: f64, hi: f64, axis: &str) -> Result<()> {
+    let width = hi - lo;
+    if lo.is_finite()
+        && hi.is_finite()
+        && width.is_finite()
+        && width > 1e-12 * lo.abs().max(hi.abs())
+    {
+        Ok(())
+    } else {
+        Err(Error::config(
+            "plot",
+            format!("{axis} range {lo:e} .. {hi:e}"),
+            "cannot draw an infinite or empty axis range",
+        ))
+    }
+}
+
 /// Colours for successive series (the last, black, is for references).
 pub const PALETTE: [RGBColor; 9] = [
     RGBColor(31, 119, 180),
@@ -73,6 +93,7 @@ pub fn profiles_png(run: &CouetteRun) -> Result<Vec<u8>> {
         let exact = run.exact();
         let u = run.config.u_wall;
         let (y0, y1) = (g.y_lower * 1e3, g.y_upper * 1e3);
+        drawable(y0, y1, "y")?;
         let c = &run.config;
         let caption = format!(
             "Couette flow: {} kernel, beta {}, {} across, {} viscosity, {}",
@@ -259,6 +280,8 @@ pub fn line_plot(axes: &Axes, series: &[Series]) -> Result<Vec<u8>> {
                     .map_err(plot_error)?;
             }};
         }
+        drawable(x0, x1, "x")?;
+        drawable(y0, y1, "y")?;
         match (axes.log_x, axes.log_y) {
             (true, true) => draw!(builder
                 .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
@@ -301,6 +324,8 @@ pub fn speed_scatter_png(
             .map(speed)
             .fold(0.0f64, f64::max)
             .max(f64::MIN_POSITIVE);
+        drawable(bounds[0], bounds[1], "x")?;
+        drawable(bounds[2], bounds[3], "y")?;
         let mut chart = ChartBuilder::on(&root)
             .caption(
                 format!("{title} (max speed {vmax:.3e})"),

@@ -2,18 +2,23 @@
 //! or when asked to be quiet.
 
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, OnceLock};
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use crate::couette::Progress;
 
-/// Set by the command line's SIGINT handler ([`request_stop`]); every
-/// [`Bar`] reports it through [`Progress::cancelled`].
-static STOP: AtomicBool = AtomicBool::new(false);
+/// The flag every [`Bar`] reports through [`Progress::cancelled`]; the
+/// command line's SIGINT and SIGTERM handlers set it.
+pub fn stop_flag() -> Arc<AtomicBool> {
+    static STOP: OnceLock<Arc<AtomicBool>> = OnceLock::new();
+    STOP.get_or_init(|| Arc::new(AtomicBool::new(false)))
+        .clone()
+}
 
-/// Asks running scenes to stop at the next step (safe from a signal handler).
+/// Asks running scenes to stop at the next step.
 pub fn request_stop() {
-    STOP.store(true, Ordering::SeqCst);
+    stop_flag().store(true, Ordering::SeqCst);
 }
 
 /// An indicatif bar implementing [`Progress`].
@@ -55,6 +60,6 @@ impl Progress for Bar {
         self.bar.finish_and_clear();
     }
     fn cancelled(&self) -> bool {
-        STOP.load(Ordering::Relaxed)
+        stop_flag().load(Ordering::Relaxed)
     }
 }
