@@ -107,6 +107,9 @@ struct RunArgs {
     /// Replace a non-empty output directory that sph did not write.
     #[arg(long)]
     overwrite: bool,
+    /// Run even when the run needs more than 10^9 time steps.
+    #[arg(long)]
+    allow_long_run: bool,
     /// Particles across the case's reference length.
     #[arg(long, value_name = "N")]
     resolution: Option<usize>,
@@ -202,7 +205,8 @@ impl RunArgs {
 
 fn run_scene(args: &RunArgs) -> Result<()> {
     let settings = args.settings()?;
-    let scene = cases::scene(&settings)?;
+    let mut scene = cases::scene(&settings)?;
+    scene.allow_long_run = args.allow_long_run;
     let dir = args
         .out
         .clone()
@@ -570,6 +574,9 @@ struct CouetteArgs {
     /// Replace a non-empty output directory that sph did not write.
     #[arg(long)]
     overwrite: bool,
+    /// Run even when the run needs more than 10^9 time steps.
+    #[arg(long)]
+    allow_long_run: bool,
     /// Fluid particles across the gap, 4 to 4000 [default: 40].
     #[arg(long, value_name = "N")]
     particles_across: Option<usize>,
@@ -684,6 +691,7 @@ impl CouetteArgs {
         );
         c.vtk |= self.vtk;
         c.quiet |= self.quiet;
+        c.allow_long_run |= self.allow_long_run;
         c.clip_default_output_times();
         c.validate()?;
         Ok(c)

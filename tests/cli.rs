@@ -434,6 +434,15 @@ fn absurd_values_are_refused_in_one_short_line() {
     let err = String::from_utf8_lossy(&result.stderr);
     assert!(err.contains("`shift`") && err.len() < 300, "{err}");
     assert!(!out.exists());
+    // A run that would never end (nu 1e9 times too large: 7.6e12 steps).
+    let result = quick_run(&out, &["--nu", "1e3"]);
+    assert_eq!(result.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&result.stderr);
+    assert!(
+        err.contains("time steps") && err.contains("--allow-long-run"),
+        "{err}"
+    );
+    assert!(!out.exists());
     // A shorter run needs no output times of its own.
     let result = sph()
         .args([

@@ -203,6 +203,8 @@ pub struct CouetteConfig {
     pub vtk: bool,
     /// No progress bar and no table.
     pub quiet: bool,
+    /// Run even when it needs more than `sph_std::scene::MAX_STEPS` steps.
+    pub allow_long_run: bool,
 }
 
 impl Default for CouetteConfig {
@@ -232,6 +234,7 @@ impl Default for CouetteConfig {
             out: PathBuf::from("out/couette"),
             vtk: false,
             quiet: false,
+            allow_long_run: false,
         }
     }
 }

@@ -301,6 +301,7 @@ pub fn scene(cfg: &CouetteConfig) -> Scene {
         steady_tolerance: None,
         threads: cfg.threads,
         keep_particles: true,
+        allow_long_run: cfg.allow_long_run,
     }
 }
 

@@ -256,7 +256,15 @@ pub struct Scene {
     pub threads: usize,
     /// Keep particle states at every output time.
     pub keep_particles: bool,
+    /// Run even when the run needs more than [`MAX_STEPS`] steps.
+    pub allow_long_run: bool,
 }
+
+/// The most time steps a run may take unless the scene allows a long run
+/// (`--allow-long-run`): about a day at 10^4 particles on one core. A
+/// larger count is almost always a unit slip (a viscosity or an end time
+/// off by orders of magnitude) and is refused before any work.
+pub const MAX_STEPS: f64 = 1e9;
 
 /// Diagnostics at one output time.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
@@ -795,6 +803,22 @@ impl<E: Executor> Context<'_, E> {
                 "dt",
                 dt_max,
                 "the time step from the stability limits must be positive and finite",
+            ));
+        }
+        let mut total = 0.0;
+        let mut last = 0.0;
+        for &t in &s.output_times {
+            total += ((t - last) / dt_max).ceil().max(1.0);
+            last = t;
+        }
+        // Beyond 2^53 steps the step counter and the times lose integers.
+        if total > MAX_STEPS && (!s.allow_long_run || total > 9.0e15) {
+            return Err(Error::config(
+                "t_end",
+                format!("{:e}", s.output_times.last().copied().unwrap_or(0.0)),
+                format!(
+                    "needs {total:.2e} time steps at dt = {dt_max:.3e} s, more than {MAX_STEPS:e}; shorten the run or pass --allow-long-run"
+                ),
             ));
         }
         let mut plan = Vec::with_capacity(s.output_times.len());

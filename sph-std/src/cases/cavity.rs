@@ -78,6 +78,7 @@ fn build(s: &Settings) -> Result<Scene> {
         steady_tolerance: Some(1e-4),
         threads: s.threads,
         keep_particles: true,
+        allow_long_run: false,
     })
 }
 

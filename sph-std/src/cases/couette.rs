@@ -106,6 +106,7 @@ pub(crate) fn channel(
         steady_tolerance: None,
         threads: s.threads,
         keep_particles: true,
+        allow_long_run: false,
     }
 }
 

@@ -381,6 +381,7 @@ fn build(s: &Settings) -> Result<Scene> {
         steady_tolerance: parts.steady_tolerance,
         threads: s.threads,
         keep_particles: true,
+        allow_long_run: false,
     })
 }
 

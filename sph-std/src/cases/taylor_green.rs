@@ -80,6 +80,7 @@ fn build(s: &Settings) -> Result<Scene> {
         steady_tolerance: None,
         threads: s.threads,
         keep_particles: true,
+        allow_long_run: false,
     })
 }
 
