@@ -203,8 +203,24 @@ impl RunArgs {
     }
 }
 
+/// Caps a requested thread count at four per core, with a warning: more
+/// only costs time spawning workers (100,000 took 51 s before failing).
+fn sane_threads(requested: usize) -> usize {
+    let cores = std::thread::available_parallelism()
+        .map(|n| n.get())
+        .unwrap_or(1);
+    let cap = 4 * cores;
+    if requested > cap {
+        eprintln!("sph: warning: {requested} threads asked for on {cores} cores; using {cap}");
+        cap
+    } else {
+        requested
+    }
+}
+
 fn run_scene(args: &RunArgs) -> Result<()> {
-    let settings = args.settings()?;
+    let mut settings = args.settings()?;
+    settings.threads = sane_threads(settings.threads);
     let mut scene = cases::scene(&settings)?;
     scene.allow_long_run = args.allow_long_run;
     let dir = args
@@ -339,6 +355,9 @@ fn run_pareto(args: &StudyArgs) -> Result<()> {
         &[10, 20, 40, 80, 160]
     };
     let configs = studies::pareto_configs(resolutions);
+    if args.threads > 1 {
+        eprintln!("sph: warning: pareto times every run on one thread; --threads is ignored");
+    }
     let bar = progress::Bar::new("pareto runs", args.quiet);
     let (rows, written) = output::in_dir(&dir, args.overwrite, |stage| {
         let rows = studies::pareto(&configs, &bar)?;
@@ -388,7 +407,7 @@ fn run_convergence(args: &StudyArgs) -> Result<()> {
     } else {
         studies::ConvergencePlan::full()
     };
-    plan.threads = args.threads;
+    plan.threads = sane_threads(args.threads);
     let bar = progress::Bar::new("convergence runs", args.quiet);
     let (report, written) = output::in_dir(&dir, args.overwrite, |stage| {
         let report = studies::convergence(&plan, &bar)?;
@@ -474,7 +493,7 @@ fn run_bench(args: &BenchArgs) -> Result<()> {
     let config = bench::BenchConfig {
         scene: args.scene,
         n: args.n,
-        threads: args.threads,
+        threads: sane_threads(args.threads),
         steps: args.steps,
         warmup: args.warmup,
         reorder_every: args.reorder_every,
@@ -692,6 +711,7 @@ impl CouetteArgs {
         c.vtk |= self.vtk;
         c.quiet |= self.quiet;
         c.allow_long_run |= self.allow_long_run;
+        c.threads = sane_threads(c.threads);
         c.clip_default_output_times();
         c.validate()?;
         Ok(c)

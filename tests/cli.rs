@@ -508,3 +508,32 @@ fn no_command_names_the_commands() {
         "{err}"
     );
 }
+
+#[test]
+fn a_run_with_one_output_time_draws_its_plots() {
+    // One output: every plot's time axis is a single value.
+    let out = scratch("one-output");
+    let result = sph()
+        .args([
+            "run",
+            "taylor-green",
+            "--quiet",
+            "--resolution",
+            "16",
+            "--t-end",
+            "0.05",
+        ])
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(
+        result.status.success(),
+        "{}",
+        String::from_utf8_lossy(&result.stderr)
+    );
+    for name in ["diagnostics.png", "case.png", "summary.json"] {
+        assert!(out.join(name).is_file(), "{name}");
+    }
+    let _ = std::fs::remove_dir_all(&out);
+}

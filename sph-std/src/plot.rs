@@ -196,7 +196,15 @@ fn range(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
     if log {
         (lo / 1.5, hi * 1.5)
     } else {
-        let pad = 0.05 * (hi - lo).max(1e-300);
+        // A single value (one output time) gets a range around it.
+        let (span, scale) = (hi - lo, lo.abs().max(hi.abs()));
+        let pad = if span > 1e-9 * scale {
+            0.05 * span
+        } else if scale > 0.0 {
+            0.05 * scale
+        } else {
+            1.0
+        };
         (lo - pad, hi + pad)
     }
 }
