@@ -281,10 +281,11 @@ fn an_unknown_case_or_key_is_one_clear_line_and_leaves_nothing() {
     let _ = std::fs::remove_file(&file);
 }
 
+/// Sends `signal` to a long scene run after its first outputs and checks
+/// that it stops with `status`, publishing what it computed.
 #[cfg(unix)]
-#[test]
-fn sigint_stops_a_scene_run_and_publishes_what_it_computed() {
-    let out = scratch("sigint");
+fn signal_stops_a_scene_run(signal: &str, status: i32) {
+    let out = scratch(signal);
     let child = sph()
         .args([
             "run",
@@ -303,12 +304,12 @@ fn sigint_stops_a_scene_run_and_publishes_what_it_computed() {
     // Let it pass its first output times (0.05 apart, ~100 steps each).
     std::thread::sleep(std::time::Duration::from_millis(2500));
     let killed = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
+        .args([format!("-{signal}"), child.id().to_string()])
         .status()
         .unwrap();
     assert!(killed.success());
     let result = child.wait_with_output().unwrap();
-    assert_eq!(result.status.code(), Some(130));
+    assert_eq!(result.status.code(), Some(status), "{signal}");
     let err = String::from_utf8_lossy(&result.stderr);
     assert!(err.contains("interrupted"), "{err}");
     let summary: serde_json::Value =
@@ -318,6 +319,18 @@ fn sigint_stops_a_scene_run_and_publishes_what_it_computed() {
         assert!(out.join(name).is_file(), "{name} missing");
     }
     let _ = std::fs::remove_dir_all(&out);
+}
+
+#[cfg(unix)]
+#[test]
+fn sigint_stops_a_scene_run_and_publishes_what_it_computed() {
+    signal_stops_a_scene_run("INT", 130);
+}
+
+#[cfg(unix)]
+#[test]
+fn sigterm_stops_a_scene_run_with_status_143() {
+    signal_stops_a_scene_run("TERM", 143);
 }
 
 #[test]
@@ -465,50 +478,6 @@ fn absurd_values_are_refused_in_one_short_line() {
     let _ = std::fs::remove_dir_all(&out);
 }
 
-#[cfg(unix)]
-#[test]
-fn sigterm_stops_a_scene_run_with_status_143() {
-    let out = scratch("sigterm");
-    let child = sph()
-        .args([
-            "run",
-            "taylor-green",
-            "--quiet",
-            "--resolution",
-            "128",
-            "--threads",
-            "1",
-        ])
-        .arg("--out")
-        .arg(&out)
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    std::thread::sleep(std::time::Duration::from_millis(2500));
-    let killed = Command::new("kill")
-        .args(["-TERM", &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(killed.success());
-    let result = child.wait_with_output().unwrap();
-    assert_eq!(result.status.code(), Some(143));
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
-    assert_eq!(summary["complete"], false);
-    let _ = std::fs::remove_dir_all(&out);
-}
-
-#[test]
-fn no_command_names_the_commands() {
-    let result = sph().output().unwrap();
-    assert_eq!(result.status.code(), Some(2));
-    let err = String::from_utf8_lossy(&result.stderr);
-    assert!(
-        err.contains("no command given") && err.contains("couette") && err.contains("run"),
-        "{err}"
-    );
-}
-
 #[test]
 fn a_run_with_one_output_time_draws_its_plots() {
     // One output: every plot's time axis is a single value.
@@ -536,4 +505,15 @@ fn a_run_with_one_output_time_draws_its_plots() {
         assert!(out.join(name).is_file(), "{name}");
     }
     let _ = std::fs::remove_dir_all(&out);
+}
+
+#[test]
+fn no_command_names_the_commands() {
+    let result = sph().output().unwrap();
+    assert_eq!(result.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&result.stderr);
+    assert!(
+        err.contains("no command given") && err.contains("couette") && err.contains("run"),
+        "{err}"
+    );
 }
