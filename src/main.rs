@@ -11,8 +11,8 @@ use sph_std::config::{
     CouetteConfig, DensityMode, KernelName, MathBackend, Precision, ViscosityForm,
 };
 use sph_std::error::Result;
-use sph_std::scene::Regularise;
-use sph_std::{bench, couette, output, progress, report, studies};
+use sph_std::scene::{Regularise, RunControl, RunRecord, Stop};
+use sph_std::{bench, checkpoint, couette, output, progress, report, studies};
 
 /// `println!` for results: a closed pipe on stdout ends the program quietly
 /// with status 0 (as Unix tools do), any other write error with one line on
@@ -92,6 +92,13 @@ enum Command {
     /// whose state degenerates or diverges writes what it computed with
     /// `complete: false` and exits with status 1.
     Run(Box<RunArgs>),
+    /// Continues an interrupted or checkpointed `sph run` in its output
+    /// directory, bit for bit as if it had never stopped.
+    ///
+    /// DIR must hold checkpoint.bin (written at SIGINT or SIGTERM, and with
+    /// --checkpoint-every while the run is going) and config.toml. The
+    /// results replace the directory's set when the run ends or stops again.
+    Resume(ResumeArgs),
     /// Lists the built-in cases.
     Cases,
 }
@@ -162,6 +169,23 @@ struct RunArgs {
     /// Write VTK particle snapshots (.vtu and a .pvd index).
     #[arg(long)]
     vtk: bool,
+    /// Publish the results so far with a checkpoint every S simulated
+    /// seconds (resume with `sph resume DIR` if the process is lost).
+    #[arg(long, value_name = "S")]
+    checkpoint_every: Option<f64>,
+    /// No progress bar and no table.
+    #[arg(long)]
+    quiet: bool,
+}
+
+#[derive(Args, Debug)]
+struct ResumeArgs {
+    /// The output directory of the run to continue.
+    #[arg(value_name = "DIR")]
+    dir: PathBuf,
+    /// Worker threads; 0 = all cores [default: the run's own].
+    #[arg(long, value_name = "T")]
+    threads: Option<usize>,
     /// No progress bar and no table.
     #[arg(long)]
     quiet: bool,
@@ -221,29 +245,95 @@ fn sane_threads(requested: usize) -> usize {
 fn run_scene(args: &RunArgs) -> Result<()> {
     let mut settings = args.settings()?;
     settings.threads = sane_threads(settings.threads);
-    let mut scene = cases::scene(&settings)?;
-    scene.allow_long_run = args.allow_long_run;
     let dir = args
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("out").join(&settings.case));
-    let bar = progress::Bar::new(&settings.case, args.quiet);
-    let (record, reference, written) = output::in_dir(&dir, args.overwrite, |stage| {
-        let record = sph_std::scene::run(&scene, &bar)?;
-        let case = cases::find(&settings.case)?;
-        let figure = (case.figure)(&scene, &record)?;
-        let reference = (case.reference)(&record);
-        let written = report::write_record(
-            &record,
-            Some(&settings),
-            Some(figure),
-            reference.as_ref(),
-            stage,
-            args.vtk,
-        )?;
-        Ok((record, reference, written))
-    })?;
-    if !args.quiet {
+    let options = checkpoint::Options {
+        vtk: args.vtk,
+        checkpoint_every: args.checkpoint_every.unwrap_or(0.0),
+        allow_long_run: args.allow_long_run,
+    };
+    execute(&settings, &dir, args.overwrite, options, None, args.quiet)
+}
+
+fn resume_scene(args: &ResumeArgs) -> Result<()> {
+    let dir = &args.dir;
+    output::check_out_dir(dir, false)?;
+    let ck = checkpoint::Checkpoint::read(dir)?;
+    let mut settings = Settings::from_file(&dir.join("config.toml"))?;
+    if let Some(t) = args.threads {
+        settings.threads = t;
+    }
+    settings.threads = sane_threads(settings.threads);
+    let options = ck.options;
+    execute(&settings, dir, false, options, Some(&ck), args.quiet)
+}
+
+/// Runs a scene (from its start or from a checkpoint), publishing its
+/// output set at every checkpoint and at the end, then prints its table.
+fn execute(
+    settings: &Settings,
+    dir: &std::path::Path,
+    overwrite: bool,
+    options: checkpoint::Options,
+    resume: Option<&checkpoint::Checkpoint>,
+    quiet: bool,
+) -> Result<()> {
+    let mut scene = cases::scene(settings)?;
+    scene.allow_long_run = options.allow_long_run;
+    // Refuse a directory before the work, not after it.
+    output::check_out_dir(dir, overwrite)?;
+    let case = cases::find(&settings.case)?;
+    let bar = progress::Bar::new(&settings.case, quiet);
+    // Writes the set for a record (and its checkpoint, if any) into `dir`.
+    let publish = |record: &RunRecord, ck: Option<&checkpoint::Checkpoint>| {
+        output::in_dir(dir, overwrite, |stage| {
+            let figure = (case.figure)(&scene, record)?;
+            let reference = (case.reference)(record);
+            let mut written = report::write_record(
+                record,
+                Some(settings),
+                Some(figure),
+                reference.as_ref(),
+                stage,
+                options.vtk,
+            )?;
+            if let Some(ck) = ck {
+                let mut ck = ck.clone();
+                ck.options = options;
+                let path = stage.join(checkpoint::FILE);
+                output::write_atomic(&path, &ck.to_bytes())?;
+                written.push(path);
+            }
+            Ok((reference, written))
+        })
+    };
+    let mut on_checkpoint = |record: &RunRecord, ck: &checkpoint::Checkpoint| {
+        let mut partial = record.clone();
+        partial.stop = Some(Stop {
+            t: ck.state.time,
+            particle: None,
+            reason: format!(
+                "running: checkpoint at t = {:.6e} s (if this process is gone, `sph resume {}` continues the run)",
+                ck.state.time,
+                dir.display()
+            ),
+        });
+        publish(&partial, Some(ck)).map(|_| ())
+    };
+    let every = (options.checkpoint_every > 0.0).then_some(options.checkpoint_every);
+    let record = sph_std::scene::run_with(
+        &scene,
+        &mut RunControl {
+            progress: &bar,
+            resume,
+            checkpoint_every: every,
+            on_checkpoint: &mut on_checkpoint,
+        },
+    )?;
+    let (reference, written) = publish(&record, record.checkpoint.as_deref())?;
+    if !quiet {
         let p = &record.physics;
         outln!(
             "{}: {} particles ({} across), {} kernel, beta {}, {} viscosity, {} density, regularise {}, {}/{}",
@@ -307,9 +397,14 @@ fn run_scene(args: &RunArgs) -> Result<()> {
             .collect();
         outln!("Wrote {} to {}", names.join(", "), dir.display());
     }
-    match &record.stop {
-        None => Ok(()),
-        Some(stop) => Err(sph_std::error::Error::Stopped(stop.reason.clone())),
+    match (&record.stop, &record.checkpoint) {
+        (None, _) => Ok(()),
+        (Some(stop), Some(_)) => Err(sph_std::error::Error::Stopped(format!(
+            "{}; `sph resume {}` continues the run",
+            stop.reason,
+            dir.display()
+        ))),
+        (Some(stop), None) => Err(sph_std::error::Error::Stopped(stop.reason.clone())),
     }
 }
 
@@ -832,6 +927,7 @@ fn main() -> ExitCode {
         Command::Convergence(args) => run_convergence(args),
         Command::Pareto(args) => run_pareto(args),
         Command::Run(args) => run_scene(args),
+        Command::Resume(args) => resume_scene(args),
         Command::Cases => list_cases(),
     };
     match result {

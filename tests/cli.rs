@@ -517,3 +517,99 @@ fn no_command_names_the_commands() {
         "{err}"
     );
 }
+
+/// Starts `sph run` into `out` with a checkpoint every 0.03 s and sends
+/// `signal` once its first checkpoint is published.
+#[cfg(unix)]
+fn interrupt_after_first_checkpoint(out: &Path, signal: &str, threads: &str) -> Option<i32> {
+    let mut child = sph()
+        .args(RESTART_RUN)
+        .args(["--threads", threads, "--checkpoint-every", "0.03", "--out"])
+        .arg(out)
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let checkpoint = out.join("checkpoint.bin");
+    while !checkpoint.exists() {
+        if let Some(status) = child.try_wait().unwrap() {
+            panic!("the run ended ({status}) before its first checkpoint");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let killed = Command::new("kill")
+        .args([format!("-{signal}"), child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    child.wait().unwrap().code()
+}
+
+const RESTART_RUN: [&str; 6] = [
+    "run",
+    "taylor-green",
+    "--quiet",
+    "--resolution",
+    "64",
+    "--t-end=0.3",
+];
+
+#[cfg(unix)]
+#[test]
+fn an_interrupted_or_killed_run_resumes_to_the_same_bytes() {
+    let whole = scratch("restart-whole");
+    let result = sph()
+        .args(RESTART_RUN)
+        .args(["--threads", "2", "--out"])
+        .arg(&whole)
+        .output()
+        .unwrap();
+    assert!(result.status.success(), "{result:?}");
+    let expected = std::fs::read(whole.join("particles.csv")).unwrap();
+    let outputs = |dir: &Path| {
+        let s: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap())
+                .unwrap();
+        (
+            s["outputs"].clone(),
+            s["steps"].clone(),
+            s["complete"].clone(),
+        )
+    };
+    // SIGINT: stops at a step boundary, publishes with its checkpoint, 130.
+    // SIGKILL: the process is gone; the last periodic checkpoint remains.
+    for (signal, status, threads) in [("INT", Some(130), "1"), ("KILL", None, "2")] {
+        let out = scratch(&format!("restart-{signal}"));
+        assert_eq!(
+            interrupt_after_first_checkpoint(&out, signal, threads),
+            status
+        );
+        let partial = outputs(&out);
+        assert_eq!(partial.2, false, "{signal}");
+        let resumed = sph()
+            .args(["resume", "--quiet"])
+            .arg(&out)
+            .output()
+            .unwrap();
+        assert!(resumed.status.success(), "{signal}: {resumed:?}");
+        assert!(
+            std::fs::read(out.join("particles.csv")).unwrap() == expected,
+            "{signal}: particles.csv differs from the uninterrupted run's"
+        );
+        assert_eq!(outputs(&out), outputs(&whole), "{signal}");
+        // A complete run keeps no checkpoint, and nothing else is left.
+        assert!(!out.join("checkpoint.bin").exists());
+        let leftovers: Vec<String> = std::fs::read_dir(out.parent().unwrap())
+            .unwrap()
+            .flatten()
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .filter(|n| n.contains(&format!("restart-{signal}")) && n.starts_with('.'))
+            .collect();
+        assert!(leftovers.is_empty(), "{leftovers:?}");
+        let _ = std::fs::remove_dir_all(&out);
+    }
+    // Nothing to resume in a completed run's directory.
+    let again = sph().args(["resume"]).arg(&whole).output().unwrap();
+    assert_eq!(again.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&again.stderr).contains("checkpoint"));
+    let _ = std::fs::remove_dir_all(&whole);
+}

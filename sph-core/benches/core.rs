@@ -129,7 +129,8 @@ mod neighbours {
             let view = list.view();
             let mut count = 0usize;
             for i in 0..n {
-                view.for_each_neighbour(&grid, &x, i, |_, _, _| count += 1);
+                view.for_each_neighbour(&grid, &x, i, |_, _, _| count += 1)
+                    .unwrap();
             }
             count
         });

@@ -174,6 +174,7 @@ pub fn curvature_correction<S: Space>(domain: &Domain<S>, x: S::Vector, mirrors:
 /// `x[n_fluid..]` and `ghosts[..]`, and returns how many there are.
 ///
 /// # Errors
+/// [`Error::LengthMismatch`] if `x` holds fewer than `n_fluid` positions;
 /// [`Error::CapacityExceeded`] (buffer `"ghosts"`) with the number needed if
 /// the reserved tail of `x` or the `ghosts` buffer is too short.
 pub fn generate<S: Space>(
@@ -183,6 +184,13 @@ pub fn generate<S: Space>(
     n_fluid: usize,
     ghosts: &mut [Ghost],
 ) -> Result<usize> {
+    if n_fluid > x.len() {
+        return Err(Error::LengthMismatch {
+            buffer: "x",
+            expected: n_fluid,
+            got: x.len(),
+        });
+    }
     let (fluid, tail) = x.split_at_mut(n_fluid);
     let available = tail.len().min(ghosts.len());
     let extent = domain.extent();

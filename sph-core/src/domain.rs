@@ -14,6 +14,12 @@ use crate::math::Math;
 use crate::real::Real;
 use crate::space::{Space, VectorOps};
 
+/// How many periods from the box a coordinate along a periodic axis may
+/// lie: wrapping a coordinate `k` periods out loses `log2 k` bits of it,
+/// so one much further out (1e300 on a box of 1) is a caller's error, not
+/// a position to wrap silently.
+pub const MAX_PERIODS: f64 = 1024.0;
+
 /// Which side of an axis.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Side {
@@ -365,13 +371,14 @@ impl<S: Space> Domain<S> {
     }
 
     /// The first axis along which `x` lies outside `[0, extent]` on a
-    /// non-periodic axis (or is not finite), with its coordinate.
+    /// non-periodic axis, more than [`MAX_PERIODS`] periods from the box on
+    /// a periodic one, or is not finite, with its coordinate.
     #[inline]
     pub fn outside(&self, x: S::Vector) -> Option<(usize, S::Real)> {
         for a in 0..S::DIM {
             let c = x[a];
             let bad = if self.periodic[a] {
-                !c.is_finite()
+                !(c.is_finite() && c.abs() <= self.extent[a] * S::Real::from_f64(MAX_PERIODS))
             } else {
                 !(c >= S::Real::ZERO && c <= self.extent[a])
             };

@@ -160,3 +160,26 @@ impl Executor for Chunked {
         }
     }
 }
+
+/// Runs `f` through `exec`, refusing any piece that the executor hands out
+/// beyond the range it was given (a wrong start offset): the passes index
+/// shared arrays with `start + k`, so a bad offset is an error here rather
+/// than an out-of-bounds access.
+pub(crate) fn run_checked<E: Executor, P: Chunk, R: Reduce>(
+    exec: &E,
+    parts: P,
+    f: &(dyn Fn(usize, P) -> Result<R> + Sync),
+) -> Result<R> {
+    let total = parts.len();
+    exec.run(
+        parts,
+        &|start, piece: P| match start.checked_add(piece.len()) {
+            Some(end) if end <= total => f(start, piece),
+            _ => Err(crate::error::Error::InvalidParameter {
+                name: "start",
+                value: start as f64,
+                rule: "an executor handed a pass a piece beyond the range it was given",
+            }),
+        },
+    )
+}

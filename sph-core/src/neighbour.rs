@@ -286,6 +286,68 @@ impl<'a> CellList<'a> {
         Ok(())
     }
 
+    /// Number of particles sorted by the last build (0 before the first
+    /// build and after [`Self::order_of_first`]).
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// True if no particles are sorted.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// The three buffers, whole: `(cell_start, cell_sorted, cell_index)`.
+    pub fn buffers(&self) -> (&[u32], &[u32], &[u32]) {
+        (self.start, self.sorted, self.cell)
+    }
+
+    /// Takes the buffers as they are, as left by a build of `len` particles
+    /// on a grid of `cells` cells (a restored checkpoint), after checking
+    /// that they are consistent: starts non-decreasing up to `len`, every
+    /// sorted index below `len`, every cell index below `cells`.
+    ///
+    /// # Errors
+    /// [`Error::CapacityExceeded`] or [`Error::InvalidParameter`] naming the
+    /// buffer that does not hold a cell list.
+    pub fn restore(&mut self, cells: usize, len: usize) -> Result<()> {
+        for (buffer, have, need) in [
+            ("cell_start", self.start.len(), cells + 1),
+            ("cell_sorted", self.sorted.len(), len),
+            ("cell_index", self.cell.len(), len),
+        ] {
+            if have < need {
+                return Err(Error::CapacityExceeded {
+                    buffer,
+                    needed: need,
+                    available: have,
+                });
+            }
+        }
+        let bad = |name| Error::InvalidParameter {
+            name,
+            value: len as f64,
+            rule: "the restored cell list is not consistent",
+        };
+        if len > 0 {
+            let start = &self.start[..cells + 1];
+            if start[0] != 0 || start[cells] as usize != len {
+                return Err(bad("cell_start"));
+            }
+            if start.windows(2).any(|w| w[0] > w[1]) {
+                return Err(bad("cell_start"));
+            }
+            if self.sorted[..len].iter().any(|&j| j as usize >= len) {
+                return Err(bad("cell_sorted"));
+            }
+            if self.cell[..len].iter().any(|&c| c as usize >= cells) {
+                return Err(bad("cell_index"));
+            }
+        }
+        self.len = len;
+        Ok(())
+    }
+
     /// Writes the indices below `n` in cell order (the order of the last
     /// build) into the per-particle cell-index buffer and returns them; that
     /// buffer is rebuilt by the next [`Self::build`]. `None` unless the last
@@ -341,7 +403,13 @@ impl CellView<'_> {
 
     /// Calls `f(j, r_ij, r2)` for every neighbour `j` of particle `i`
     /// (including `i`), where `r_ij` is the separation to `j`'s nearest image
-    /// and `r2 = |r_ij|^2 < radius^2`.
+    /// and `r2 = |r_ij|^2 < radius^2`. `x` and `grid` must be those the list
+    /// was built from.
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] (nothing is visited) if `i` is not a
+    /// particle of the list, `x` is shorter than the list, or `grid` has
+    /// fewer cells than the list was built for.
     #[inline(always)]
     pub fn for_each_neighbour<S: Space>(
         &self,
@@ -349,15 +417,57 @@ impl CellView<'_> {
         x: &[S::Vector],
         i: usize,
         mut f: impl FnMut(usize, S::Vector, S::Real),
-    ) {
-        self.for_each_neighbour_coded(grid, x, i, |j, _, d, r2| f(j, d, r2));
+    ) -> Result<()> {
+        self.for_each_neighbour_coded(grid, x, i, |j, _, d, r2| f(j, d, r2))
     }
 
     /// As [`Self::for_each_neighbour`], also passing the image's shift code:
     /// two bits per axis `a` at bit `2a`, 0 for no shift, 1 for `+period`, 2
     /// for `-period`, so that `r_ij = (x_i - x_j) - shift`.
+    ///
+    /// # Errors
+    /// As [`Self::for_each_neighbour`].
     #[inline(always)]
     pub fn for_each_neighbour_coded<S: Space>(
+        &self,
+        grid: &Grid<S>,
+        x: &[S::Vector],
+        i: usize,
+        f: impl FnMut(usize, u32, S::Vector, S::Real),
+    ) -> Result<()> {
+        let bad = |name, value: usize, rule| {
+            Err(Error::InvalidParameter {
+                name,
+                value: value as f64,
+                rule,
+            })
+        };
+        if i >= self.sorted.len() {
+            return bad("i", i, "the particle must be one of the cell list's");
+        }
+        if x.len() < self.sorted.len() {
+            return bad(
+                "x",
+                x.len(),
+                "the positions must cover every particle of the cell list",
+            );
+        }
+        let cells = grid.cell_count();
+        if self.start.len() <= cells || self.cell[i] as usize >= cells {
+            return bad(
+                "grid",
+                cells,
+                "the grid must be the one the cell list was built on",
+            );
+        }
+        self.visit_coded(grid, x, i, f);
+        Ok(())
+    }
+
+    /// [`Self::for_each_neighbour_coded`] without the checks, for the
+    /// solver, whose lists, positions and grid always belong together.
+    #[inline(always)]
+    pub(crate) fn visit_coded<S: Space>(
         &self,
         grid: &Grid<S>,
         x: &[S::Vector],
@@ -462,7 +572,8 @@ mod tests {
         let view = list.view();
         let mut out = Vec::new();
         for i in 0..x.len() {
-            view.for_each_neighbour(&grid, x, i, |j, d, _| out.push((i, j, d)));
+            view.for_each_neighbour(&grid, x, i, |j, d, _| out.push((i, j, d)))
+                .unwrap();
         }
         out.sort_by_key(|a| (a.0, a.1));
         out

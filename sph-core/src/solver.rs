@@ -43,7 +43,7 @@ use crate::boundary::{self, Ghost};
 use crate::domain::{Domain, Side};
 use crate::eos::Eos;
 use crate::error::{Error, Fault, Result};
-use crate::exec::{Executor, Max2, Rows, Serial};
+use crate::exec::{run_checked, Executor, Max2, Rows, Serial};
 use crate::kernel::{Kernel, SmoothingKernel};
 use crate::math::Math;
 use crate::neighbour::{CellList, CellView, Grid};
@@ -99,6 +99,45 @@ pub struct Storage<'a, S: Space> {
     pub shift: &'a mut [S::Vector],
 }
 
+/// Every buffer of a solver's [`Storage`], whole and read-only
+/// ([`Solver::storage`]): what a checkpoint copies, field by field, to
+/// resume with [`Solver::resume_with`].
+#[derive(Clone, Copy, Debug)]
+pub struct StorageRef<'s, S: Space> {
+    /// See [`Storage::x`].
+    pub x: &'s [S::Vector],
+    /// See [`Storage::v`].
+    pub v: &'s [S::Vector],
+    /// See [`Storage::m`].
+    pub m: &'s [S::Real],
+    /// See [`Storage::rho`].
+    pub rho: &'s [S::Real],
+    /// See [`Storage::p`].
+    pub p: &'s [S::Real],
+    /// See [`Storage::ve`].
+    pub ve: &'s [S::Vector],
+    /// See [`Storage::dv`].
+    pub dv: &'s [S::Vector],
+    /// See [`Storage::drho`].
+    pub drho: &'s [S::Real],
+    /// See [`Storage::rho_aux`].
+    pub rho_aux: &'s [S::Real],
+    /// See [`Storage::ghosts`].
+    pub ghosts: &'s [Ghost],
+    /// See [`Storage::cell_start`].
+    pub cell_start: &'s [u32],
+    /// See [`Storage::cell_sorted`].
+    pub cell_sorted: &'s [u32],
+    /// See [`Storage::cell_index`].
+    pub cell_index: &'s [u32],
+    /// See [`Storage::neighbours`].
+    pub neighbours: &'s [u32],
+    /// See [`Storage::neighbour_counts`].
+    pub neighbour_counts: &'s [u32],
+    /// See [`Storage::shift`].
+    pub shift: &'s [S::Vector],
+}
+
 /// Bytes of [`Storage`] per particle slot for space `S`, without neighbour
 /// lists (they add `4 * (width + 1)`) and cell starts.
 pub const fn bytes_per_particle<S: Space>() -> usize {
@@ -106,6 +145,39 @@ pub const fn bytes_per_particle<S: Space>() -> usize {
     let f = core::mem::size_of::<S::Real>();
     4 * v + 5 * f + core::mem::size_of::<Ghost>() + 2 * core::mem::size_of::<u32>()
 }
+
+/// A solver's scalar state between two steps ([`Solver::resume_state`]);
+/// with a copy of the storage, what [`Solver::resume_with`] needs to
+/// continue the run bit for bit. Reals are kept as `f64` (exact for `f32`).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Resume {
+    /// Simulated time in seconds.
+    pub time: f64,
+    /// Steps taken.
+    pub steps: u64,
+    /// Ghosts at the last evaluation.
+    pub n_ghost: usize,
+    /// Particles in the cell list's last build (0 if none is current).
+    pub cell_len: usize,
+    /// Cell-list builds so far (the reordering cadence counts them).
+    pub builds: u32,
+    /// Largest squared speed after the last step.
+    pub vmax2: f64,
+    /// Largest squared acceleration after the last step.
+    pub amax2: f64,
+    /// Estimated largest viscous decay rate (1/s).
+    pub viscous_rate: f64,
+    /// Distance travelled since the neighbour lists were built.
+    pub travel: f64,
+    /// The neighbour lists are current.
+    pub lists_fresh: bool,
+    /// The density pass has partitioned the neighbour rows.
+    pub partitioned: bool,
+}
+
+/// The most power iterations [`Params::viscous_iterations`] may ask for:
+/// each costs a viscous pass, and the estimate converges long before.
+pub const MAX_VISCOUS_ITERATIONS: u32 = 1000;
 
 /// Scene parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -185,6 +257,13 @@ impl<F: Real> Params<F> {
                 name: "skin",
                 value: self.skin.to_f64(),
                 rule: "the Verlet skin must be between 0 and 1 (fraction of the support radius)",
+            });
+        }
+        if self.viscous_iterations == 0 || self.viscous_iterations > MAX_VISCOUS_ITERATIONS {
+            return Err(Error::InvalidParameter {
+                name: "viscous_iterations",
+                value: self.viscous_iterations as f64,
+                rule: "between 1 and 1000 power iterations (60 are plenty: the estimate converges geometrically)",
             });
         }
         if !(self.max_speed.is_finite() && self.max_speed >= F::ZERO) {
@@ -413,7 +492,7 @@ impl<S: Space, K: Kernel, M: Math<S::Real>> Pass<'_, S, K, M> {
         let fields = self.fields.uniform();
         match self.neighbours {
             Neighbours::Cells(cells) => {
-                cells.for_each_neighbour(self.grid, fields.x, i, |j, _, r2| f(j, r2))
+                cells.visit_coded(self.grid, fields.x, i, |j, _, _, r2| f(j, r2))
             }
             Neighbours::Lists {
                 rows,
@@ -449,19 +528,9 @@ impl<S: Space, K: Kernel, M: Math<S::Real>> Pass<'_, S, K, M> {
             terms.init(self.consts, &d, &mut acc);
         }
         match self.neighbours {
-            Neighbours::Cells(cells) => {
-                cells.for_each_neighbour(self.grid, f.x, i, |j, r_ij, r2| {
-                    self.visit::<T, VISCOUS_ONLY>(
-                        &f,
-                        terms,
-                        &d,
-                        (&mut acc, &mut scratch),
-                        j,
-                        r_ij,
-                        r2,
-                    );
-                })
-            }
+            Neighbours::Cells(cells) => cells.visit_coded(self.grid, f.x, i, |j, _, r_ij, r2| {
+                self.visit::<T, VISCOUS_ONLY>(&f, terms, &d, (&mut acc, &mut scratch), j, r_ij, r2);
+            }),
             Neighbours::Lists {
                 rows,
                 counts,
@@ -606,7 +675,178 @@ where
         density: D,
         forces: T,
     ) -> Result<Self> {
+        let mut solver = Self::assemble(params, domain, storage, n_fluid, density, forces, true)?;
+        solver.prepare(exec)?;
+        Ok(solver)
+    }
+
+    /// Continues a run from a checkpoint: `storage` holds every buffer as
+    /// it was after step [`Resume::steps`] of the run (all of it, scratch
+    /// included: the neighbour lists, cell list and ghost records decide
+    /// the order of the sums), and `state` is [`Self::resume_state`] at
+    /// that point. Nothing is re-evaluated, so the run continues bit for
+    /// bit as if it had never stopped (with the same parameters, domain,
+    /// terms and executor split independence as ever).
+    ///
+    /// # Errors
+    /// As [`Self::new`]; [`Error::InvalidParameter`] or
+    /// [`Error::CapacityExceeded`] naming the field of `state` or the buffer
+    /// that is inconsistent (a ghost whose source is not a fluid particle,
+    /// a neighbour entry beyond the particles, a cell list that does not
+    /// fit the grid, a non-finite rate).
+    pub fn resume_with(
+        params: Params<S::Real>,
+        mut domain: Domain<S>,
+        storage: Storage<'a, S>,
+        n_fluid: usize,
+        density: D,
+        forces: T,
+        state: Resume,
+    ) -> Result<Self> {
+        domain.set_wall_time(state.time);
+        let mut solver = Self::assemble(params, domain, storage, n_fluid, density, forces, false)?;
+        solver.restore(state)?;
+        Ok(solver)
+    }
+
+    /// Every storage buffer, whole (for a checkpoint; see [`Self::resume_with`]).
+    pub fn storage(&self) -> StorageRef<'_, S> {
+        let (cell_start, cell_sorted, cell_index) = self.cells.buffers();
+        StorageRef {
+            x: self.a.x,
+            v: self.a.v,
+            m: self.a.m,
+            rho: self.a.rho,
+            p: self.a.p,
+            ve: self.a.ve,
+            dv: self.a.dv,
+            drho: self.a.drho,
+            rho_aux: self.a.rho_aux,
+            ghosts: self.a.ghosts,
+            cell_start,
+            cell_sorted,
+            cell_index,
+            neighbours: self.a.nbr,
+            neighbour_counts: self.a.nbr_count,
+            shift: self.a.shift,
+        }
+    }
+
+    /// The solver's own state between steps, besides the storage: with a
+    /// copy of every storage buffer, what [`Self::resume_with`] needs.
+    pub fn resume_state(&self) -> Resume {
+        Resume {
+            time: self.time,
+            steps: self.step,
+            n_ghost: self.n_ghost,
+            cell_len: self.cells.len(),
+            builds: self.builds,
+            vmax2: self.vmax2.to_f64(),
+            amax2: self.amax2.to_f64(),
+            viscous_rate: self.viscous_rate,
+            travel: self.travel,
+            lists_fresh: self.lists_fresh,
+            partitioned: self.partitioned,
+        }
+    }
+
+    fn restore(&mut self, state: Resume) -> Result<()> {
+        let bad = |name: &'static str, value: f64| Error::InvalidParameter {
+            name,
+            value,
+            rule: "the resumed state must be finite, not negative and consistent with the storage",
+        };
+        for (name, value) in [
+            ("time", state.time),
+            ("vmax2", state.vmax2),
+            ("amax2", state.amax2),
+            ("viscous_rate", state.viscous_rate),
+            ("travel", state.travel),
+        ] {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err(bad(name, value));
+            }
+        }
+        let n = self.n;
+        let cap = self.a.x.len();
+        let total = match n.checked_add(state.n_ghost) {
+            Some(t) if t <= cap => t,
+            _ => {
+                return Err(Error::CapacityExceeded {
+                    buffer: "ghosts",
+                    needed: n.saturating_add(state.n_ghost),
+                    available: cap,
+                })
+            }
+        };
+        let mirror_bits = (1u16 << (2 * S::DIM)) - 1;
+        for g in &self.a.ghosts[..state.n_ghost] {
+            if g.source as usize >= n || u16::from(g.mirrors) & !mirror_bits != 0 {
+                return Err(bad("ghosts", f64::from(g.source)));
+            }
+        }
+        self.cells.restore(self.grid.cell_count(), state.cell_len)?;
+        if state.cell_len != 0 && state.cell_len != total {
+            return Err(bad("cell_len", state.cell_len as f64));
+        }
+        let width = self.list_width;
+        if width > 0 {
+            for i in 0..n {
+                let word = self.a.nbr_count[i];
+                let used = (word & COUNT_MASK) as usize;
+                let inside = (word >> 16) as usize;
+                if used > width || inside > used {
+                    return Err(bad("neighbour_counts", f64::from(word)));
+                }
+                let row = &self.a.nbr[i * width..i * width + used];
+                if row.iter().any(|&e| (e & INDEX_MASK) as usize >= total) {
+                    return Err(bad("neighbours", i as f64));
+                }
+            }
+        }
+        for i in 0..n {
+            let finite = self.a.ve[i].is_finite()
+                && self.a.dv[i].is_finite()
+                && self.a.drho[i].is_finite()
+                && self.a.rho[i].is_finite()
+                && self.a.rho_aux[i].is_finite()
+                && self.a.p[i].is_finite()
+                && (!T::SHIFTS || self.a.shift[i].is_finite());
+            if !finite {
+                return Err(Error::NonFinite {
+                    particle: i,
+                    field: "rates",
+                });
+            }
+        }
+        self.time = state.time;
+        self.step = state.steps;
+        self.n_ghost = state.n_ghost;
+        self.builds = state.builds;
+        self.vmax2 = S::Real::from_f64(state.vmax2);
+        self.amax2 = S::Real::from_f64(state.amax2);
+        self.viscous_rate = state.viscous_rate;
+        self.travel = state.travel;
+        self.lists_fresh = state.lists_fresh && width > 0;
+        self.partitioned = state.partitioned;
+        Ok(())
+    }
+
+    /// Checks the parameters, the terms and the storage and takes them;
+    /// with `wrap`, fluid positions along periodic axes are wrapped into
+    /// the box (a fresh start), otherwise left where a resumed run had them.
+    fn assemble(
+        params: Params<S::Real>,
+        domain: Domain<S>,
+        storage: Storage<'a, S>,
+        n_fluid: usize,
+        density: D,
+        forces: T,
+        wrap: bool,
+    ) -> Result<Self> {
         params.validate()?;
+        density.validate()?;
+        forces.validate()?;
         domain.validate()?;
         let kernel = SmoothingKernel::<S, K, M>::new(params.h)?;
         let cap = storage.x.len();
@@ -697,15 +937,16 @@ where
                     rule: "initial densities must be positive with continuity density",
                 });
             }
-            let x = domain.wrap::<M>(storage.x[i]);
-            if let Some((axis, c)) = domain.outside(x) {
+            if let Some((axis, c)) = domain.outside(storage.x[i]) {
                 return Err(Error::OutsideDomain {
                     particle: i,
                     axis,
                     coordinate: c.to_f64(),
                 });
             }
-            storage.x[i] = x;
+            if wrap {
+                storage.x[i] = domain.wrap::<M>(storage.x[i]);
+            }
         }
         let c0 = params.eos.sound_speed();
         let limit = if params.max_speed > S::Real::ZERO {
@@ -741,7 +982,7 @@ where
             neighbour_counts,
             shift,
         } = storage;
-        let mut solver = Self {
+        let solver = Self {
             params,
             consts,
             kernel,
@@ -783,7 +1024,6 @@ where
             partitioned: false,
             failed: None,
         };
-        solver.prepare(exec)?;
         Ok(solver)
     }
 
@@ -966,7 +1206,7 @@ where
                 consts: &self.consts,
                 fields,
             };
-            return exec.run(&mut rho_aux[..n], &|start, out: &mut [S::Real]| {
+            return run_checked(exec, &mut rho_aux[..n], &|start, out: &mut [S::Real]| {
                 for (k, o) in out.iter_mut().enumerate() {
                     *o = pass.accumulate::<G, false>(group, start + k).rho;
                 }
@@ -985,7 +1225,8 @@ where
             consts: &self.consts,
             fields,
         };
-        exec.run(
+        run_checked(
+            exec,
             (
                 &mut rho_aux[..n],
                 Rows {
@@ -1032,7 +1273,8 @@ where
         let view = self.cells.view();
         let grid = &self.grid;
         let x = &self.a.x[..total];
-        exec.run(
+        run_checked(
+            exec,
             (
                 Rows {
                     data: &mut self.a.nbr[..n * width],
@@ -1044,7 +1286,7 @@ where
                 for (k, count) in counts.iter_mut().enumerate() {
                     let row = &mut rows.data[k * width..(k + 1) * width];
                     let mut used = 0usize;
-                    view.for_each_neighbour_coded(grid, x, start + k, |j, code, _, _| {
+                    view.visit_coded(grid, x, start + k, |j, code, _, _| {
                         if used < width {
                             row[used] = j as u32 | (code << INDEX_BITS);
                         }
@@ -1097,8 +1339,8 @@ where
                 rho, p, rho_aux, ..
             } = &mut self.a;
             let rho_aux = &rho_aux[..n];
-            exec.run((&mut rho[..n], &mut p[..n]), &|start,
-                                                     (rho, p): (
+            run_checked(exec, (&mut rho[..n], &mut p[..n]), &|start,
+                                                              (rho, p): (
                 &mut [S::Real],
                 &mut [S::Real],
             )| {
@@ -1193,7 +1435,8 @@ where
         let forces = &self.forces;
         if T::SHIFTS && !VISCOUS_ONLY {
             let shift = &mut shift[..n];
-            return exec.run(
+            return run_checked(
+                exec,
                 (&mut dv[..n], &mut drho[..n], shift),
                 &|start, (dv, drho, shift): RatesParts<'_, S>| {
                     for k in 0..dv.len() {
@@ -1206,8 +1449,8 @@ where
                 },
             );
         }
-        exec.run((&mut dv[..n], &mut drho[..n]), &|start,
-                                                   (dv, drho): (
+        run_checked(exec, (&mut dv[..n], &mut drho[..n]), &|start,
+                                                            (dv, drho): (
             &mut [S::Vector],
             &mut [S::Real],
         )| {
@@ -1294,6 +1537,8 @@ where
                 rule: "time step must be positive and finite",
             });
         }
+        self.density.validate()?;
+        self.forces.validate()?;
         let result = self.advance(exec, dt);
         if let Err(e) = result {
             self.failed = Some(e);
@@ -1325,7 +1570,8 @@ where
             let (dv, drho) = (&dv[..n], &drho[..n]);
             let shifting = T::SHIFTS;
             let shift: &[S::Vector] = if shifting { &shift[..n] } else { &[] };
-            exec.run(
+            run_checked(
+                exec,
                 (
                     &mut x[..n],
                     &mut v[..n],
@@ -1398,7 +1644,8 @@ where
                 ..
             } = &mut self.a;
             let (dv, drho, rho_aux) = (&dv[..n], &drho[..n], &rho_aux[..n]);
-            exec.run(
+            run_checked(
+                exec,
                 (&mut v[..n], &mut rho[..n], &mut p[..n]),
                 &|start, (v, rho, p): KickParts<'_, S>| {
                     let mut max = Max2(S::Real::ZERO, S::Real::ZERO);

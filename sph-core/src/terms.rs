@@ -17,6 +17,7 @@
 //! `grad W = F r_ij` with `F = (1/r) dW/dr <= 0`, and `eta2` is the absolute
 //! regulariser `eta^2` (a fraction of `h^2`, 0.01 by default).
 
+use crate::error::{Error, Result};
 use crate::real::Real;
 use crate::space::{Space, VectorOps};
 
@@ -174,6 +175,17 @@ pub trait Term<S: Space>: Copy + Send + Sync {
     /// without a fit carries nothing.
     type Scratch: Copy + Default;
 
+    /// Checks the term's coefficients (finite, in range); the solver calls
+    /// it when it is built and before every step, so a NaN or negative
+    /// viscosity is reported as [`Error::InvalidParameter`] naming it
+    /// instead of surfacing later as a non-finite position.
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] naming the coefficient.
+    fn validate(&self) -> Result<()> {
+        Ok(())
+    }
+
     /// Called once per destination before its neighbours.
     #[inline(always)]
     fn init(&self, _k: &Consts<S>, _d: &Dest<S>, _acc: &mut Acc<S>) {}
@@ -234,6 +246,10 @@ macro_rules! term_tuple {
             const VISCOUS: bool = $($T::VISCOUS)||+;
             const SHIFTS: bool = $($T::SHIFTS)||+;
             type Scratch = ($($T::Scratch,)+);
+            fn validate(&self) -> Result<()> {
+                $(self.$i.validate()?;)+
+                Ok(())
+            }
             #[inline(always)]
             fn init(&self, k: &Consts<S>, d: &Dest<S>, acc: &mut Acc<S>) {
                 $(self.$i.init(k, d, acc);)+
@@ -264,6 +280,42 @@ term_tuple!(A 0, B 1, C 2);
 term_tuple!(A 0, B 1, C 2, D 3);
 term_tuple!(A 0, B 1, C 2, D 3, E 4);
 term_tuple!(A 0, B 1, C 2, D 3, E 4, G 5);
+
+fn finite<F: Real>(name: &'static str, value: F) -> Result<()> {
+    if value.is_finite() {
+        Ok(())
+    } else {
+        Err(Error::InvalidParameter {
+            name,
+            value: value.to_f64(),
+            rule: "a term coefficient must be finite",
+        })
+    }
+}
+
+fn non_negative<F: Real>(name: &'static str, value: F) -> Result<()> {
+    if value.is_finite() && value >= F::ZERO {
+        Ok(())
+    } else {
+        Err(Error::InvalidParameter {
+            name,
+            value: value.to_f64(),
+            rule: "a term coefficient must be finite and not negative",
+        })
+    }
+}
+
+fn positive<F: Real>(name: &'static str, value: F) -> Result<()> {
+    if value.is_finite() && value > F::ZERO {
+        Ok(())
+    } else {
+        Err(Error::InvalidParameter {
+            name,
+            value: value.to_f64(),
+            rule: "a term coefficient must be finite and positive",
+        })
+    }
+}
 
 /// Summation density `rho_i = sum_j m_j W_ij` (the sum includes `j = i`).
 #[derive(Clone, Copy, Debug, Default)]
@@ -462,6 +514,12 @@ pub struct BodyForce<S: Space> {
 
 impl<S: Space> Term<S> for BodyForce<S> {
     type Scratch = ();
+    fn validate(&self) -> Result<()> {
+        for a in 0..S::DIM {
+            finite("g", self.g[a])?;
+        }
+        Ok(())
+    }
     #[inline(always)]
     fn init(&self, _k: &Consts<S>, _d: &Dest<S>, acc: &mut Acc<S>) {
         acc.dv += self.g;
@@ -487,6 +545,9 @@ pub struct MorrisViscosity<F> {
 
 impl<S: Space> Term<S> for MorrisViscosity<S::Real> {
     type Scratch = ();
+    fn validate(&self) -> Result<()> {
+        non_negative("mu", self.mu)
+    }
     const NEEDS_F: bool = true;
     const VISCOUS: bool = true;
     #[inline(always)]
@@ -525,6 +586,9 @@ pub struct PiViscosity<F> {
 
 impl<S: Space> Term<S> for PiViscosity<S::Real> {
     type Scratch = ();
+    fn validate(&self) -> Result<()> {
+        non_negative("mu", self.mu)
+    }
     const NEEDS_F: bool = true;
     const VISCOUS: bool = true;
     #[inline(always)]
@@ -563,6 +627,10 @@ pub struct ArtificialViscosity<F> {
 
 impl<S: Space> Term<S> for ArtificialViscosity<S::Real> {
     type Scratch = ();
+    fn validate(&self) -> Result<()> {
+        non_negative("alpha", self.alpha)?;
+        non_negative("beta", self.beta)
+    }
     const NEEDS_F: bool = true;
     const VISCOUS: bool = true;
     #[inline(always)]
@@ -651,6 +719,10 @@ pub struct CorrectedMorrisViscosity<F> {
 
 impl<S: Space> Term<S> for CorrectedMorrisViscosity<S::Real> {
     type Scratch = Fit<S>;
+    fn validate(&self) -> Result<()> {
+        non_negative("mu", self.mu)?;
+        positive("rho0", self.rho0)
+    }
     const NEEDS_F: bool = true;
     const VISCOUS: bool = true;
     #[inline(always)]
@@ -805,6 +877,13 @@ pub enum AnyViscosity<F> {
 
 impl<S: Space> Term<S> for AnyViscosity<S::Real> {
     type Scratch = ();
+    fn validate(&self) -> Result<()> {
+        match self {
+            AnyViscosity::Morris(t) => <MorrisViscosity<S::Real> as Term<S>>::validate(t),
+            AnyViscosity::Pi(t) => <PiViscosity<S::Real> as Term<S>>::validate(t),
+            AnyViscosity::Artificial(t) => <ArtificialViscosity<S::Real> as Term<S>>::validate(t),
+        }
+    }
     const NEEDS_F: bool = true;
     const VISCOUS: bool = true;
     #[inline(always)]
@@ -886,6 +965,11 @@ impl<F: Real> Shifting<F> {
 
 impl<S: Space> Term<S> for Shifting<S::Real> {
     type Scratch = Gradients<S>;
+    fn validate(&self) -> Result<()> {
+        non_negative("shift scale", self.scale)?;
+        non_negative("inv_w_dx", self.inv_w_dx)?;
+        non_negative("repulsion", self.repulsion)
+    }
     const NEEDS_W: bool = true;
     const NEEDS_F: bool = true;
     const SHIFTS: bool = true;
@@ -948,6 +1032,9 @@ pub struct DensityDiffusion<F> {
 
 impl<S: Space> Term<S> for DensityDiffusion<S::Real> {
     type Scratch = ();
+    fn validate(&self) -> Result<()> {
+        non_negative("delta", self.delta)
+    }
     const NEEDS_F: bool = true;
     #[inline(always)]
     fn pair(&self, k: &Consts<S>, d: &Dest<S>, f: &Fields<'_, S>, p: &Pair<S>, acc: &mut Acc<S>) {

@@ -176,7 +176,7 @@ fn mean_neighbours<S: Space>(
     let view = list.view();
     let mut pairs = 0usize;
     for i in 0..n {
-        view.for_each_neighbour(&grid, all, i, |_, _, _| pairs += 1);
+        view.for_each_neighbour(&grid, all, i, |_, _, _| pairs += 1)?;
     }
     Ok(pairs as f64 / n.max(1) as f64)
 }

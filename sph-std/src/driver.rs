@@ -4,7 +4,9 @@ use sph_core::boundary::Ghost;
 use sph_core::error::Result;
 use sph_core::exec::{Chunk, Executor, Reduce};
 use sph_core::real::Real;
-use sph_core::solver::Storage;
+use sph_core::solver::{Storage, StorageRef};
+
+use crate::checkpoint::{Arrays, REAL_NAMES, WORD_NAMES};
 use sph_core::space::{Space, VectorOps};
 
 /// Threads to use: `threads`, or every core for 0.
@@ -170,6 +172,103 @@ impl<S: Space> Buffers<S> {
         }
     }
 
+    /// Copies a checkpoint's buffers in ([`save`] wrote them).
+    ///
+    /// # Errors
+    /// [`Error::Config`] (key `checkpoint`) naming the first buffer whose
+    /// length does not match these buffers (a checkpoint of another scene
+    /// or resolution).
+    pub fn load(&mut self, arrays: &Arrays) -> crate::error::Result<()> {
+        let dim = S::DIM;
+        let mismatch = |name: &str, got: usize, want: usize| {
+            crate::error::Error::config(
+                "checkpoint",
+                format!("{name}: {got} values"),
+                format!("does not fit the scene ({want} expected): the checkpoint belongs to another run"),
+            )
+        };
+        if arrays.reals.len() != REAL_NAMES.len() || arrays.words.len() != WORD_NAMES.len() {
+            return Err(mismatch(
+                "buffers",
+                arrays.reals.len() + arrays.words.len(),
+                REAL_NAMES.len() + WORD_NAMES.len(),
+            ));
+        }
+        fn vectors<S: Space>(dst: &mut [S::Vector], src: &[f64]) {
+            for (k, v) in dst.iter_mut().enumerate() {
+                *v = S::Vector::from_fn(|a| S::Real::from_f64(src[k * S::DIM + a]));
+            }
+        }
+        fn reals<F: Real>(dst: &mut [F], src: &[f64]) {
+            for (d, s) in dst.iter_mut().zip(src) {
+                *d = F::from_f64(*s);
+            }
+        }
+        let r = &arrays.reals;
+        let vec_bufs = [
+            (0, self.x.len()),
+            (1, self.v.len()),
+            (5, self.ve.len()),
+            (6, self.dv.len()),
+            (9, self.shift.len()),
+        ];
+        for (i, len) in vec_bufs {
+            if r[i].len() != len * dim {
+                return Err(mismatch(REAL_NAMES[i], r[i].len(), len * dim));
+            }
+        }
+        let real_bufs = [
+            (2, self.m.len()),
+            (3, self.rho.len()),
+            (4, self.p.len()),
+            (7, self.drho.len()),
+            (8, self.rho_aux.len()),
+        ];
+        for (i, len) in real_bufs {
+            if r[i].len() != len {
+                return Err(mismatch(REAL_NAMES[i], r[i].len(), len));
+            }
+        }
+        let w = &arrays.words;
+        let word_bufs = [
+            self.ghosts.len(),
+            self.ghosts.len(),
+            self.cell_start.len(),
+            self.cell_sorted.len(),
+            self.cell_index.len(),
+            self.neighbours.len(),
+            self.neighbour_counts.len(),
+        ];
+        for (i, len) in word_bufs.into_iter().enumerate() {
+            if w[i].len() != len {
+                return Err(mismatch(WORD_NAMES[i], w[i].len(), len));
+            }
+        }
+        if w[1].iter().any(|&m| m > u32::from(u8::MAX)) {
+            return Err(mismatch("ghost_mirrors", w[1].len(), w[1].len()));
+        }
+        vectors::<S>(&mut self.x, &r[0]);
+        vectors::<S>(&mut self.v, &r[1]);
+        reals(&mut self.m, &r[2]);
+        reals(&mut self.rho, &r[3]);
+        reals(&mut self.p, &r[4]);
+        vectors::<S>(&mut self.ve, &r[5]);
+        vectors::<S>(&mut self.dv, &r[6]);
+        reals(&mut self.drho, &r[7]);
+        reals(&mut self.rho_aux, &r[8]);
+        vectors::<S>(&mut self.shift, &r[9]);
+        for (k, g) in self.ghosts.iter_mut().enumerate() {
+            g.source = w[0][k];
+            g.mirrors = w[1][k] as u8;
+        }
+        self.cell_start.copy_from_slice(&w[2]);
+        self.cell_sorted.copy_from_slice(&w[3]);
+        self.cell_index.copy_from_slice(&w[4]);
+        self.neighbours.copy_from_slice(&w[5]);
+        self.neighbour_counts.copy_from_slice(&w[6]);
+        Ok(())
+    }
+
     /// Bytes held, in total.
     pub fn bytes(&self) -> usize {
         self.x.len() * sph_core::solver::bytes_per_particle::<S>()
@@ -190,4 +289,40 @@ pub fn list_width(dim: usize, kappa: f64, beta: f64, skin: f64) -> usize {
         _ => 4.0 / 3.0 * std::f64::consts::PI * r * r * r,
     };
     (1.5 * ball).ceil() as usize + 8
+}
+
+/// Copies every buffer of a solver's storage, reals as `f64` (exact for
+/// `f32`), for a checkpoint ([`Buffers::load`] reads it back).
+pub fn save<S: Space>(s: &StorageRef<'_, S>) -> Arrays {
+    fn vectors<S: Space>(v: &[S::Vector]) -> Vec<f64> {
+        v.iter()
+            .flat_map(|x| (0..S::DIM).map(move |a| x[a].to_f64()))
+            .collect()
+    }
+    fn reals<F: Real>(v: &[F]) -> Vec<f64> {
+        v.iter().map(|x| x.to_f64()).collect()
+    }
+    Arrays {
+        reals: vec![
+            vectors::<S>(s.x),
+            vectors::<S>(s.v),
+            reals(s.m),
+            reals(s.rho),
+            reals(s.p),
+            vectors::<S>(s.ve),
+            vectors::<S>(s.dv),
+            reals(s.drho),
+            reals(s.rho_aux),
+            vectors::<S>(s.shift),
+        ],
+        words: vec![
+            s.ghosts.iter().map(|g| g.source).collect(),
+            s.ghosts.iter().map(|g| u32::from(g.mirrors)).collect(),
+            s.cell_start.to_vec(),
+            s.cell_sorted.to_vec(),
+            s.cell_index.to_vec(),
+            s.neighbours.to_vec(),
+            s.neighbour_counts.to_vec(),
+        ],
+    }
 }

@@ -17,6 +17,7 @@
 
 pub mod bench;
 pub mod cases;
+pub mod checkpoint;
 pub mod config;
 pub mod couette;
 pub mod driver;

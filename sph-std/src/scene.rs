@@ -30,6 +30,7 @@ use sph_core::prelude::{
 use sph_core::real::Real;
 use sph_core::space::{Space, VectorOps};
 
+use crate::checkpoint::Checkpoint;
 use crate::config::{DensityMode, KernelName, MathBackend, Precision, ViscosityForm};
 use crate::couette::{Progress, SKIN};
 use crate::driver::{Buffers, Rayon};
@@ -363,6 +364,8 @@ pub struct RunRecord {
     pub stop: Option<Stop>,
     /// The run reached a steady state before its end time.
     pub steady: bool,
+    /// The state where a stop request (SIGINT) halted the run, to resume it.
+    pub checkpoint: Option<Box<Checkpoint>>,
 }
 
 impl RunRecord {
@@ -372,6 +375,21 @@ impl RunRecord {
     }
 }
 
+/// What a run takes from its caller besides the scene, and where its
+/// checkpoints go.
+pub struct RunControl<'a> {
+    /// Progress reports and the stop request (SIGINT).
+    pub progress: &'a dyn Progress,
+    /// Continue from this checkpoint instead of the initial state (the
+    /// scene must be the one it was taken from).
+    pub resume: Option<&'a Checkpoint>,
+    /// Take a checkpoint every this many simulated seconds and hand it to
+    /// `on_checkpoint`, with the run's record so far.
+    pub checkpoint_every: Option<f64>,
+    /// Receives each periodic checkpoint; an error stops the run with it.
+    pub on_checkpoint: &'a mut (dyn FnMut(&RunRecord, &Checkpoint) -> Result<()> + Send),
+}
+
 /// Runs a scene.
 ///
 /// # Errors
@@ -379,18 +397,60 @@ impl RunRecord {
 /// core refuses it. A run that diverges or trips the monitor is not an
 /// error here: it returns a record with [`RunRecord::stop`] set.
 pub fn run(scene: &Scene, progress: &dyn Progress) -> Result<RunRecord> {
+    let mut none = |_: &RunRecord, _: &Checkpoint| Ok(());
+    run_with(
+        scene,
+        &mut RunControl {
+            progress,
+            resume: None,
+            checkpoint_every: None,
+            on_checkpoint: &mut none,
+        },
+    )
+}
+
+/// Runs a scene with checkpoints, or continues one from a checkpoint: the
+/// continuation is bitwise the run that was never stopped (any thread
+/// count). A run stopped by the progress's stop request (SIGINT) returns
+/// its state in [`RunRecord::checkpoint`].
+///
+/// # Errors
+/// As [`run`]; [`Error::Config`] (key `checkpoint`) for a checkpoint that
+/// does not belong to this scene; errors of `on_checkpoint`.
+pub fn run_with(scene: &Scene, ctl: &mut RunControl<'_>) -> Result<RunRecord> {
     check_scene(scene)?;
+    if let Some(every) = ctl.checkpoint_every {
+        if !(every > 0.0 && every.is_finite()) {
+            return Err(Error::config(
+                "checkpoint_every",
+                every,
+                "must be a positive, finite number of simulated seconds",
+            ));
+        }
+    }
     let threads = crate::driver::resolve_threads(scene.threads);
     let start = Instant::now();
+    let mut hook = |record: &RunRecord, ck: &Checkpoint| {
+        let mut record = record.clone();
+        record.threads = threads;
+        record.wall_seconds = start.elapsed().as_secs_f64();
+        (ctl.on_checkpoint)(&record, ck)
+    };
+    let mut inner = RunControl {
+        progress: ctl.progress,
+        resume: ctl.resume,
+        checkpoint_every: ctl.checkpoint_every,
+        on_checkpoint: &mut hook,
+    };
     let mut record = if threads == 1 {
-        by_dim(scene, &Serial, progress)?
+        by_dim(scene, &Serial, &mut inner)?
     } else {
         let pool = crate::driver::thread_pool(threads)?;
         let n = estimate_particles(scene);
         let min_chunk = (n / (4 * threads)).max(64);
-        pool.install(|| by_dim(scene, &Rayon { min_chunk }, progress))?
+        pool.install(|| by_dim(scene, &Rayon { min_chunk }, &mut inner))?
     };
-    progress.finish();
+    ctl.progress.finish();
     record.threads = threads;
     record.wall_seconds = start.elapsed().as_secs_f64();
     Ok(record)
@@ -476,24 +536,16 @@ fn estimate_particles(scene: &Scene) -> usize {
     n as usize
 }
 
-fn by_dim<E: Executor>(scene: &Scene, exec: &E, progress: &dyn Progress) -> Result<RunRecord> {
+fn by_dim<E: Executor>(scene: &Scene, exec: &E, ctl: &mut RunControl<'_>) -> Result<RunRecord> {
     let p = scene.physics;
     match (scene.dim, p.precision, p.math) {
-        (2, Precision::F64, MathBackend::Libm) => {
-            by_kernel::<D2<f64>, Libm, E>(scene, exec, progress)
-        }
-        (2, Precision::F32, MathBackend::Libm) => {
-            by_kernel::<D2<f32>, Libm, E>(scene, exec, progress)
-        }
+        (2, Precision::F64, MathBackend::Libm) => by_kernel::<D2<f64>, Libm, E>(scene, exec, ctl),
+        (2, Precision::F32, MathBackend::Libm) => by_kernel::<D2<f32>, Libm, E>(scene, exec, ctl),
         (2, Precision::F32, MathBackend::Micromath) => {
-            by_kernel::<D2<f32>, Micromath, E>(scene, exec, progress)
+            by_kernel::<D2<f32>, Micromath, E>(scene, exec, ctl)
         }
-        (3, Precision::F64, MathBackend::Libm) => {
-            by_kernel::<D3<f64>, Libm, E>(scene, exec, progress)
-        }
-        (3, Precision::F32, MathBackend::Libm) => {
-            by_kernel::<D3<f32>, Libm, E>(scene, exec, progress)
-        }
+        (3, Precision::F64, MathBackend::Libm) => by_kernel::<D3<f64>, Libm, E>(scene, exec, ctl),
+        (3, Precision::F32, MathBackend::Libm) => by_kernel::<D3<f32>, Libm, E>(scene, exec, ctl),
         _ => Err(Error::config(
             "math",
             p.math,
@@ -502,24 +554,24 @@ fn by_dim<E: Executor>(scene: &Scene, exec: &E, progress: &dyn Progress) -> Resu
     }
 }
 
-fn by_kernel<S, M, E>(scene: &Scene, exec: &E, progress: &dyn Progress) -> Result<RunRecord>
+fn by_kernel<S, M, E>(scene: &Scene, exec: &E, ctl: &mut RunControl<'_>) -> Result<RunRecord>
 where
     S: Space,
     M: Math<S::Real>,
     E: Executor,
 {
     match scene.physics.kernel {
-        KernelName::Cubic => by_terms::<S, CubicSpline, M, E>(scene, exec, progress),
-        KernelName::Quintic => by_terms::<S, QuinticSpline, M, E>(scene, exec, progress),
-        KernelName::WendlandC2 => by_terms::<S, WendlandC2, M, E>(scene, exec, progress),
-        KernelName::WendlandC4 => by_terms::<S, WendlandC4, M, E>(scene, exec, progress),
-        KernelName::Gaussian => by_terms::<S, Gaussian, M, E>(scene, exec, progress),
+        KernelName::Cubic => by_terms::<S, CubicSpline, M, E>(scene, exec, ctl),
+        KernelName::Quintic => by_terms::<S, QuinticSpline, M, E>(scene, exec, ctl),
+        KernelName::WendlandC2 => by_terms::<S, WendlandC2, M, E>(scene, exec, ctl),
+        KernelName::WendlandC4 => by_terms::<S, WendlandC4, M, E>(scene, exec, ctl),
+        KernelName::Gaussian => by_terms::<S, Gaussian, M, E>(scene, exec, ctl),
     }
 }
 
 /// The viscous term of a scene: the run-time enum (one predictable branch
 /// per pair) or the consistent Laplacian.
-fn by_terms<S, K, M, E>(scene: &Scene, exec: &E, progress: &dyn Progress) -> Result<RunRecord>
+fn by_terms<S, K, M, E>(scene: &Scene, exec: &E, ctl: &mut RunControl<'_>) -> Result<RunRecord>
 where
     S: Space,
     K: Kernel,
@@ -527,9 +579,8 @@ where
     E: Executor,
 {
     let mu = S::Real::from_f64(scene.nu * scene.rho0);
-    let run = |visc: AnyViscosity<S::Real>| {
-        by_regularisation::<S, K, M, E, _>(scene, exec, progress, visc)
-    };
+    let mut run =
+        |visc: AnyViscosity<S::Real>| by_regularisation::<S, K, M, E, _>(scene, exec, ctl, visc);
     match scene.physics.viscosity {
         ViscosityForm::Morris => run(AnyViscosity::Morris(MorrisViscosity { mu })),
         ViscosityForm::Pi => run(AnyViscosity::Pi(PiViscosity { mu })),
@@ -552,7 +603,7 @@ where
         ViscosityForm::Corrected => by_regularisation::<S, K, M, E, _>(
             scene,
             exec,
-            progress,
+            ctl,
             CorrectedMorrisViscosity {
                 mu,
                 rho0: S::Real::from_f64(scene.rho0),
@@ -564,7 +615,7 @@ where
 fn by_regularisation<S, K, M, E, V>(
     scene: &Scene,
     exec: &E,
-    progress: &dyn Progress,
+    ctl: &mut RunControl<'_>,
     visc: V,
 ) -> Result<RunRecord>
 where
@@ -591,11 +642,7 @@ where
     let diffusion = DensityDiffusion {
         delta: f(scene.physics.density_diffusion),
     };
-    let ctx = Context {
-        scene,
-        exec,
-        progress,
-    };
+    let mut ctx = Context { scene, exec, ctl };
     // The shifting velocity scale follows the flow: C h max(|v|, U/100).
     let c_h = scene.physics.shift_coefficient * h;
     let floor = 0.01 * scene.velocity_scale;
@@ -639,10 +686,10 @@ fn by_form(mode: DensityMode) -> AnyContinuity {
     }
 }
 
-struct Context<'a, E> {
+struct Context<'a, 'c, E> {
     scene: &'a Scene,
     exec: &'a E,
-    progress: &'a dyn Progress,
+    ctl: &'a mut RunControl<'c>,
 }
 
 fn to3<S: Space>(v: S::Global) -> [f64; 3] {
@@ -665,7 +712,7 @@ fn norm(v: [f64; 3]) -> f64 {
     (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
 }
 
-impl<E: Executor> Context<'_, E> {
+impl<E: Executor> Context<'_, '_, E> {
     fn domain<S: Space>(&self) -> Result<Domain<S>> {
         let s = self.scene;
         let f = S::Real::from_f64;
@@ -704,7 +751,7 @@ impl<E: Executor> Context<'_, E> {
     }
 
     fn simulate<S, K, M, D, T>(
-        &self,
+        &mut self,
         density: D,
         forces: T,
         retune: impl Fn(&mut T, f64),
@@ -778,26 +825,53 @@ impl<E: Executor> Context<'_, E> {
         let params = Params::new(f(h), eos)
             .with_eta2(f(s.physics.eta2))
             .with_skin(f(SKIN));
-        let mut solver = Solver::<S, K, M, D, T>::new_with(
-            exec,
-            params,
-            domain,
-            buffers.storage(),
-            n,
-            density,
-            forces,
-        )?;
-        // Masses such that summation density gives rho0 on the initial
-        // arrangement; continuity density started from a pressure field
-        // keeps the lattice mass and its densities.
-        if !continuity || s.pressure.is_none() {
-            solver.calibrate_mass_with(exec, f(s.rho0))?;
-        }
-        let limits = solver.limits();
-        // The acoustic limit with the scene's velocity scale (the state at
-        // rest does not know how fast a lid or a vortex will go).
-        let cfl = 0.25 * h / (c0 + s.velocity_scale);
-        let dt_max = s.physics.dt_factor * cfl.min(limits.viscous).min(limits.force);
+        let resume = self.ctl.resume;
+        let (mut solver, limits, dt_max) = if let Some(ck) = resume {
+            if ck.case != s.case || ck.dim != S::DIM || ck.n_fluid != n {
+                return Err(Error::config(
+                    "checkpoint",
+                    format!("{} {}D, {} particles", ck.case, ck.dim, ck.n_fluid),
+                    format!(
+                        "belongs to another run than this {} {}D scene of {n} particles",
+                        s.case,
+                        S::DIM
+                    ),
+                ));
+            }
+            buffers.load(&ck.arrays)?;
+            let solver = Solver::<S, K, M, D, T>::resume_with(
+                params,
+                domain,
+                buffers.storage(),
+                n,
+                density,
+                forces,
+                ck.state,
+            )?;
+            (solver, ck.limits, ck.dt)
+        } else {
+            let mut solver = Solver::<S, K, M, D, T>::new_with(
+                exec,
+                params,
+                domain,
+                buffers.storage(),
+                n,
+                density,
+                forces,
+            )?;
+            // Masses such that summation density gives rho0 on the initial
+            // arrangement; continuity density started from a pressure field
+            // keeps the lattice mass and its densities.
+            if !continuity || s.pressure.is_none() {
+                solver.calibrate_mass_with(exec, f(s.rho0))?;
+            }
+            let limits = solver.limits();
+            // The acoustic limit with the scene's velocity scale (the state at
+            // rest does not know how fast a lid or a vortex will go).
+            let cfl = 0.25 * h / (c0 + s.velocity_scale);
+            let dt_max = s.physics.dt_factor * cfl.min(limits.viscous).min(limits.force);
+            (solver, [cfl, limits.viscous, limits.force], dt_max)
+        };
         if !(dt_max > 0.0 && dt_max.is_finite()) {
             return Err(Error::config(
                 "dt",
@@ -828,7 +902,18 @@ impl<E: Executor> Context<'_, E> {
             plan.push((t, steps, (t - last) / steps as f64));
             last = t;
         }
-        self.progress.start(plan.iter().map(|p| p.1).sum());
+        let (first_interval, first_done) = resume.map_or((0, 0), |ck| (ck.interval, ck.done));
+        if first_interval > plan.len() || plan.get(first_interval).is_some_and(|p| first_done > p.1)
+        {
+            return Err(Error::config(
+                "checkpoint",
+                format!("output {first_interval}, step {first_done}"),
+                "lies beyond the run's output times",
+            ));
+        }
+        self.ctl.progress.start(plan.iter().map(|p| p.1).sum());
+        let already: u64 = plan[..first_interval].iter().map(|p| p.1).sum::<u64>() + first_done;
+        self.ctl.progress.advance(already);
         let mut record = RunRecord {
             case: s.case.clone(),
             dim: S::DIM,
@@ -842,26 +927,58 @@ impl<E: Executor> Context<'_, E> {
             rho0: s.rho0,
             nu: s.nu,
             body_force: s.body_force,
-            limits: [cfl, limits.viscous, limits.force],
+            limits,
             dt: dt_max,
             steps: 0,
             threads: 1,
             wall_seconds: 0.0,
             storage_bytes,
-            outputs: Vec::new(),
-            frames: Vec::new(),
+            outputs: resume.map_or_else(Vec::new, |ck| ck.outputs.clone()),
+            frames: resume.map_or_else(Vec::new, |ck| ck.frames.clone()),
             stop: None,
             steady: false,
+            checkpoint: None,
         };
         let every = s.monitor.every.max(1);
-        'outputs: for (t_out, steps, dt) in plan {
-            for k in 0..steps {
-                if self.progress.cancelled() {
+        let period = self.ctl.checkpoint_every;
+        // The next checkpoint time: the first multiple of the period ahead.
+        let next_after = |t: f64| period.map(|p| ((t / p).floor() + 1.0) * p);
+        let mut next_checkpoint = next_after(solver.time());
+        let capture = |solver: &Solver<'_, S, K, M, D, T>,
+                       record: &RunRecord,
+                       interval: usize,
+                       done: u64| Checkpoint {
+            case: s.case.clone(),
+            dim: S::DIM,
+            n_fluid: n,
+            interval,
+            done,
+            dt: dt_max,
+            limits,
+            storage_bytes,
+            state: solver.resume_state(),
+            arrays: crate::driver::save(&solver.storage()),
+            outputs: record.outputs.clone(),
+            frames: record.frames.clone(),
+            options: Default::default(),
+        };
+        'outputs: for (interval, &(t_out, steps, dt)) in
+            plan.iter().enumerate().skip(first_interval)
+        {
+            let first = if interval == first_interval {
+                first_done
+            } else {
+                0
+            };
+            for k in first..steps {
+                if self.ctl.progress.cancelled() {
                     record.stop = Some(Stop {
                         t: solver.time(),
                         particle: None,
                         reason: format!("interrupted at t = {:.6e} s", solver.time()),
                     });
+                    record.steps = solver.steps();
+                    record.checkpoint = Some(Box::new(capture(&solver, &record, interval, k)));
                     break 'outputs;
                 }
                 let vmax = solver.max_speed();
@@ -879,7 +996,7 @@ impl<E: Executor> Context<'_, E> {
                     break 'outputs;
                 }
                 if k % 64 == 63 {
-                    self.progress.advance(64);
+                    self.ctl.progress.advance(64);
                 }
                 if (k + 1) % every == 0 {
                     if let Some(stop) = self.check_cheap(&solver) {
@@ -887,8 +1004,14 @@ impl<E: Executor> Context<'_, E> {
                         break 'outputs;
                     }
                 }
+                if next_checkpoint.is_some_and(|tc| solver.time() >= tc) {
+                    record.steps = solver.steps();
+                    let ck = capture(&solver, &record, interval, k + 1);
+                    (self.ctl.on_checkpoint)(&record, &ck)?;
+                    next_checkpoint = next_after(solver.time());
+                }
             }
-            self.progress.advance(steps % 64);
+            self.ctl.progress.advance((steps - first) % 64);
             let (diag, worst) = self.diagnostics(&solver, t_out);
             record.outputs.push(diag);
             if s.keep_particles {

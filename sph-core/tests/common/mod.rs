@@ -67,6 +67,51 @@ impl<S: Space> Buffers<S> {
         self
     }
 
+    /// Shortens (or lengthens, with zeros) buffer number `which` of the 16
+    /// in [`Storage`] order to `len` entries: a caller's sizing mistake.
+    pub fn resize(&mut self, which: usize, len: usize) {
+        let (z, f) = (S::Vector::zero(), S::Real::ZERO);
+        match which % 16 {
+            0 => self.x.resize(len, z),
+            1 => self.v.resize(len, z),
+            2 => self.m.resize(len, f),
+            3 => self.rho.resize(len, f),
+            4 => self.p.resize(len, f),
+            5 => self.ve.resize(len, z),
+            6 => self.dv.resize(len, z),
+            7 => self.drho.resize(len, f),
+            8 => self.rho_aux.resize(len, f),
+            9 => self.ghosts.resize(len, Ghost::default()),
+            10 => self.cell_start.resize(len, 0),
+            11 => self.cell_sorted.resize(len, 0),
+            12 => self.cell_index.resize(len, 0),
+            13 => self.neighbours.resize(len, 0),
+            14 => self.neighbour_counts.resize(len, 0),
+            _ => self.shift.resize(len, z),
+        }
+    }
+
+    /// Overwrites entry `k` of integer buffer `which` (0 ghosts' sources,
+    /// 1 cell starts, 2 sorted, 3 cell indices, 4 neighbours, 5 counts).
+    pub fn poke(&mut self, which: usize, k: usize, value: u32) {
+        let buf: &mut [u32] = match which % 6 {
+            0 => {
+                if let Some(g) = self.ghosts.get_mut(k) {
+                    g.source = value;
+                }
+                return;
+            }
+            1 => &mut self.cell_start,
+            2 => &mut self.cell_sorted,
+            3 => &mut self.cell_index,
+            4 => &mut self.neighbours,
+            _ => &mut self.neighbour_counts,
+        };
+        if let Some(e) = buf.get_mut(k) {
+            *e = value;
+        }
+    }
+
     pub fn storage(&mut self) -> Storage<'_, S> {
         Storage {
             x: &mut self.x,
