@@ -613,3 +613,89 @@ fn an_interrupted_or_killed_run_resumes_to_the_same_bytes() {
     assert!(String::from_utf8_lossy(&again.stderr).contains("checkpoint"));
     let _ = std::fs::remove_dir_all(&whole);
 }
+
+/// Runs `sph ARGS` and returns (exit status, stderr).
+fn status_and_error(args: &[&str]) -> (Option<i32>, String) {
+    let result = sph().args(args).output().unwrap();
+    (
+        result.status.code(),
+        String::from_utf8_lossy(&result.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn runs_too_large_for_memory_are_refused_before_allocating() {
+    let out = scratch("huge");
+    let dir = out.to_string_lossy().into_owned();
+    // About 1e10 particles (a strip 1e8 supports wide): some 8 TiB.
+    let (code, err) = status_and_error(&["couette", "--strip-supports", "1e8", "--out", &dir]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("GiB") && err.contains("`particles`"), "{err}");
+    // 6e7 particles in the benchmark box: about 26 GiB, where that is more
+    // than the machine has (the test must not allocate it elsewhere).
+    let available = sph::std::resources::available_memory().unwrap_or(0) as f64;
+    if available > 0.0 && available < 25.0 * (1u64 << 30) as f64 {
+        let (code, err) = status_and_error(&["bench", "--n", "60000000", "--steps", "1"]);
+        assert_eq!(code, Some(2), "{err}");
+        assert!(err.contains("`n`") && err.contains("GiB"), "{err}");
+    }
+    // A million output times, each a profile of every particle.
+    let many: Vec<String> = (1..=1_000_000)
+        .map(|i| format!("{}", i as f64 * 1e-6))
+        .collect();
+    let config = out.with_extension("toml");
+    std::fs::write(&config, format!("output_times = [{}]\n", many.join(","))).unwrap();
+    let (code, err) = status_and_error(&[
+        "couette",
+        "--config",
+        &config.to_string_lossy(),
+        "--t-end",
+        "1",
+        "--out",
+        &dir,
+    ]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("`output_times`") && err.len() < 300, "{err}");
+    assert!(!out.exists());
+    let _ = std::fs::remove_file(&config);
+}
+
+#[test]
+fn benchmark_edge_cases_are_clear_errors_or_work() {
+    // Too small for the periodic box: the error states the real minimum.
+    for args in [
+        &["bench", "--n", "16"][..],
+        &["bench", "--n", "30"],
+        &["bench", "--scene", "box3d", "--n", "20"],
+    ] {
+        let (code, err) = status_and_error(args);
+        assert_eq!(code, Some(2), "{args:?}: {err}");
+        assert!(err.contains("`n`") && err.contains("between"), "{err}");
+    }
+    // The smallest accepted sizes run, and so do wide skins on Couette.
+    for args in [
+        &["bench", "--n", "36", "--steps", "2", "--warmup", "1"][..],
+        &[
+            "bench", "--scene", "box3d", "--n", "216", "--steps", "2", "--warmup", "1",
+        ],
+        &[
+            "bench", "--scene", "couette", "--n", "2000", "--skin", "0.4", "--steps", "2",
+        ],
+        &[
+            "bench", "--scene", "couette", "--n", "2000", "--skin", "1", "--steps", "2",
+        ],
+    ] {
+        let (code, err) = status_and_error(args);
+        assert_eq!(code, Some(0), "{args:?}: {err}");
+    }
+    // A NaN skin without lists, a sweep of one size: refused, not NaN output.
+    for (args, key) in [
+        (&["bench", "--no-lists", "--skin", "NaN"][..], "`skin`"),
+        (&["bench", "--sweep", "--sizes", "100"], "`sizes`"),
+        (&["bench", "--sweep", "--sizes", "100,100"], "`sizes`"),
+    ] {
+        let (code, err) = status_and_error(args);
+        assert_eq!(code, Some(2), "{args:?}: {err}");
+        assert!(err.contains(key), "{err}");
+    }
+}

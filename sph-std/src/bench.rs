@@ -130,16 +130,7 @@ impl Rng {
 /// # Errors
 /// [`Error::Config`] for a bad size or thread count; core errors if the scene diverges.
 pub fn run(cfg: &BenchConfig) -> Result<BenchReport> {
-    if cfg.n < 16 || cfg.n > 100_000_000 {
-        return Err(Error::config(
-            "n",
-            cfg.n,
-            "must be between 16 and 1e8 particles",
-        ));
-    }
-    if cfg.steps == 0 {
-        return Err(Error::config("steps", cfg.steps, "must be at least 1"));
-    }
+    validate(cfg)?;
     if cfg.threads == 1 {
         return dispatch(cfg, &Serial);
     }
@@ -149,6 +140,69 @@ pub fn run(cfg: &BenchConfig) -> Result<BenchReport> {
     let mut report = pool.install(|| dispatch(cfg, &Rayon { min_chunk }))?;
     report.threads = threads;
     Ok(report)
+}
+
+/// The largest particle count with neighbour lists: their entries keep a
+/// particle index in 26 bits (ghosts need slots too).
+const MAX_LISTED: usize = 60_000_000;
+
+/// Checks a configuration before anything is allocated: the skin, the
+/// particle count against what the scene needs (a periodic box at least
+/// two list radii across) and against the list index, the step count, and
+/// the estimated memory against what is available.
+fn validate(cfg: &BenchConfig) -> Result<()> {
+    if !(cfg.skin.is_finite() && (0.0..=1.0).contains(&cfg.skin)) {
+        return Err(Error::config(
+            "skin",
+            cfg.skin,
+            "must be between 0 and 1 (a fraction of the support radius)",
+        ));
+    }
+    if cfg.steps == 0 {
+        return Err(Error::config("steps", cfg.steps, "must be at least 1"));
+    }
+    let skin = if cfg.lists { cfg.skin } else { 0.0 };
+    let (dim, beta) = match cfg.scene {
+        Scene::Box2d | Scene::Couette => (2, 1.3),
+        Scene::Box3d => (3, 1.2),
+    };
+    // A periodic side of `side` particles holds two list radii (2 h each).
+    let min_side = (4.0 * beta * (1.0 + skin)).ceil() as usize;
+    let (min_n, side) = match cfg.scene {
+        Scene::Couette => (16, usize::MAX),
+        _ => (
+            min_side.pow(dim as u32),
+            (cfg.n as f64).powf(1.0 / dim as f64).round() as usize,
+        ),
+    };
+    let max_n = if cfg.lists { MAX_LISTED } else { 100_000_000 };
+    if cfg.n < min_n || side < min_side || cfg.n > max_n {
+        return Err(Error::config(
+            "n",
+            cfg.n,
+            format!(
+                "must be between {min_n} and {max_n} particles for the {} scene{}",
+                cfg.scene.name(),
+                if cfg.lists {
+                    format!(" with neighbour lists of skin {}", cfg.skin)
+                } else {
+                    String::new()
+                }
+            ),
+        ));
+    }
+    let width = if cfg.lists {
+        crate::driver::list_width(dim, 2.0, beta, skin) + 1
+    } else {
+        0
+    };
+    let per = if dim == 2 {
+        sph_core::solver::bytes_per_particle::<D2<f64>>()
+    } else {
+        sph_core::solver::bytes_per_particle::<D3<f64>>()
+    } + 4 * width;
+    // Ghosts, cells and the positions copied for the neighbour count: 1.5x.
+    crate::resources::check_memory("n", cfg.n, 1.5 * (cfg.n * per) as f64)
 }
 
 fn dispatch<E: Executor>(cfg: &BenchConfig, exec: &E) -> Result<BenchReport> {
@@ -166,8 +220,13 @@ fn mean_neighbours<S: Space>(
     n: usize,
     domain: &Domain<S>,
     radius: S::Real,
+    reach: S::Real,
 ) -> Result<f64> {
-    let grid = sph_core::neighbour::Grid::new(domain, radius)?;
+    // The grid spans the ghosts, which reach as far as the Verlet lists do
+    // (`reach`, at least `radius`); only pairs within `radius` count.
+    let reach = if reach > radius { reach } else { radius };
+    let grid = sph_core::neighbour::Grid::new(domain, reach)?;
+    let r2 = radius * radius;
     let mut start = vec![0u32; grid.cell_count() + 1];
     let mut sorted = vec![0u32; all.len()];
     let mut cell = vec![0u32; all.len()];
@@ -176,7 +235,11 @@ fn mean_neighbours<S: Space>(
     let view = list.view();
     let mut pairs = 0usize;
     for i in 0..n {
-        view.for_each_neighbour(&grid, all, i, |_, _, _| pairs += 1)?;
+        view.for_each_neighbour(&grid, all, i, |_, _, d2| {
+            if d2 < r2 {
+                pairs += 1;
+            }
+        })?;
     }
     Ok(pairs as f64 / n.max(1) as f64)
 }
@@ -207,7 +270,9 @@ where
         .collect();
     let n = all.len();
     all.extend_from_slice(solver.ghost_positions());
-    let neighbours_mean = mean_neighbours::<S>(&all, n, domain, solver.kernel().radius())?;
+    let radius = solver.kernel().radius();
+    let reach = radius * (1.0 + solver.params().skin);
+    let neighbours_mean = mean_neighbours::<S>(&all, n, domain, radius, reach)?;
     let start = Instant::now();
     for _ in 0..cfg.steps {
         solver.step_with(exec, dt)?;
@@ -405,7 +470,9 @@ where
 fn couette<E: Executor>(cfg: &BenchConfig, exec: &E) -> Result<BenchReport> {
     // Keep the Couette aspect ratio of the validation case: a strip 6 dx wide per 40 across.
     let across = ((cfg.n as f64 / 0.15).sqrt().round() as usize).max(8);
-    let nx = (across * 6).div_ceil(40).max(6);
+    // The periodic strip holds two list radii (2 h (1 + skin) each).
+    let min_nx = (5.2 * (1.0 + cfg.skin)).ceil() as usize + 1;
+    let nx = (across * 6).div_ceil(40).max(min_nx);
     let n = across * nx;
     let (gap, u, nu, rho0) = (1e-3, 1.25e-5, 1e-6, 1e3);
     let dx = gap / across as f64;
@@ -420,7 +487,9 @@ fn couette<E: Executor>(cfg: &BenchConfig, exec: &E) -> Result<BenchReport> {
     let cells = Solver::<D2<f64>, CubicSpline, Libm, SummationDensity, BoxForces>::cells_needed(
         &domain, h,
     )?;
-    let cap = n + 8 * nx;
+    // Ghost rows within the list radius of each wall, plus one.
+    let rows = (2.6 * (1.0 + cfg.skin)).ceil() as usize + 1;
+    let cap = n + 2 * rows * nx;
     let mut b = Buffers::<D2<f64>>::new(cap, cells);
     if cfg.lists {
         b = b.with_lists(crate::driver::list_width(2, 2.0, 1.3, cfg.skin));
@@ -471,6 +540,19 @@ pub struct SweepRow {
 /// # Errors
 /// As [`run`].
 pub fn sweep(base: &BenchConfig, sizes: &[usize]) -> Result<(Vec<SweepRow>, f64)> {
+    let mut distinct = sizes.to_vec();
+    distinct.sort_unstable();
+    distinct.dedup();
+    if distinct.len() < 2 {
+        return Err(Error::config(
+            "sizes",
+            format!("{sizes:?}"),
+            "a sweep fits a slope: give at least two different sizes",
+        ));
+    }
+    for &n in sizes {
+        validate(&BenchConfig { n, ..*base })?;
+    }
     let mut rows = Vec::with_capacity(sizes.len());
     for &n in sizes {
         let steps = (4.0e6 / n as f64).clamp(5.0, 2000.0) as usize;

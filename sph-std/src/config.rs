@@ -401,6 +401,12 @@ impl CouetteConfig {
             self.particles_across,
             "the gap must be at least one kernel support wide (particles_across >= support * beta)",
         )?;
+        check(
+            self.output_times.len() <= 10_000,
+            "output_times",
+            format!("{} times", self.output_times.len()),
+            "at most 10000 output times (each keeps a profile of every particle)",
+        )?;
         let mut last = 0.0;
         for &t in &self.output_times {
             check(

@@ -26,6 +26,7 @@ pub mod output;
 pub mod plot;
 pub mod progress;
 pub mod report;
+pub mod resources;
 pub mod scene;
 pub mod studies;
 

@@ -767,6 +767,7 @@ impl<E: Executor> Context<'_, '_, E> {
         let exec = self.exec;
         let f = S::Real::from_f64;
         let domain = self.domain::<S>()?;
+        self.check_memory::<S, K>()?;
         let points = lattice(s);
         let n = points.len();
         if n == 0 {
@@ -1030,6 +1031,44 @@ impl<E: Executor> Context<'_, '_, E> {
         }
         record.steps = solver.steps();
         Ok(record)
+    }
+
+    /// Refuses a scene whose estimated memory (particle storage with its
+    /// ghosts and lists, plus the particle frames kept at every output
+    /// time and a checkpoint's copy) exceeds what is available, before any
+    /// of it is allocated.
+    fn check_memory<S: Space, K: Kernel>(&self) -> Result<()> {
+        let s = self.scene;
+        let n = estimate_particles(s) as f64;
+        // Ghost slabs: at most two list radii of particles per wall.
+        let mut ghosts = 0.0;
+        for a in 0..S::DIM {
+            if let AxisSpec::Walls(..) = s.axes[a] {
+                let slab = (K::SUPPORT * s.physics.beta * (1.0 + SKIN)).ceil() + 2.0;
+                ghosts += 2.0 * 2.0 * n * slab * s.dx / s.extent[a];
+            }
+        }
+        let width = crate::driver::list_width(S::DIM, K::SUPPORT, s.physics.beta, SKIN) as f64;
+        let per = sph_core::solver::bytes_per_particle::<S>() as f64
+            + 4.0 * (width + 1.0)
+            + std::mem::size_of::<S::Vector>() as f64;
+        let storage = (n + ghosts) * per;
+        // Frames: position, velocity (3 each), density, pressure as f64.
+        let frames = if s.keep_particles {
+            s.output_times.len() as f64 * n * 64.0
+        } else {
+            0.0
+        };
+        let checkpoint = if self.ctl.checkpoint_every.is_some() || self.ctl.resume.is_some() {
+            2.0 * storage + frames
+        } else {
+            0.0
+        };
+        crate::resources::check_memory(
+            "particles",
+            format!("{n} (with {} output times)", s.output_times.len()),
+            storage + frames + checkpoint,
+        )
     }
 
     /// The O(N) checks (density and Mach) between output times.
