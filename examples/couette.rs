@@ -2,9 +2,9 @@
 //! scene from `sph-core` pieces, step it with the rayon executor, and compare
 //! with the exact series. Run with `cargo run --release --example couette`.
 
-use sph::core::analytic::Couette;
-use sph::core::prelude::*;
-use sph::std::driver::{Buffers, Rayon};
+use sph_core::analytic::Couette;
+use sph_core::prelude::*;
+use sph_std::driver::{Buffers, Rayon};
 
 fn main() -> Result<()> {
     // Morris, Fox & Zhu (1997): gap 1 mm, nu = 1e-6 m^2/s, U = 1.25e-5 m/s.

@@ -33,8 +33,32 @@ macro_rules! out {
     };
 }
 
-/// Writes to stdout under the rules of [`outln!`].
+/// With `--json`, stdout carries one JSON object and nothing else: the
+/// human-readable text of [`outln!`] goes to stderr instead.
+static HUMAN_TO_STDERR: AtomicBool = AtomicBool::new(false);
+
+/// Sends the human-readable text to stderr from now on (`--json`).
+fn json_mode() {
+    HUMAN_TO_STDERR.store(true, Ordering::Relaxed);
+}
+
+/// Prints the one JSON object of a `--json` command on stdout.
+fn json_out(value: &serde_json::Value) {
+    raw_stdout_write(format_args!("{value}\n"));
+}
+
+/// Writes human-readable text: stdout, or stderr in `--json` mode.
 fn stdout_write(args: std::fmt::Arguments<'_>) {
+    if HUMAN_TO_STDERR.load(Ordering::Relaxed) {
+        use std::io::Write;
+        let _ = std::io::stderr().lock().write_fmt(args);
+        return;
+    }
+    raw_stdout_write(args);
+}
+
+/// Writes to stdout under the rules of [`outln!`].
+fn raw_stdout_write(args: std::fmt::Arguments<'_>) {
     use std::io::Write;
     let mut out = std::io::stdout().lock();
     if let Err(e) = out.write_fmt(args) {
@@ -69,7 +93,7 @@ enum Command {
     /// Times a standard scene: particle-steps and pair interactions per second.
     ///
     /// The periodic boxes are timed after an untimed warm-up that disorders
-    /// the initial lattice. With --json the last line is one JSON object.
+    /// the initial lattice. With --json stdout is one JSON object (the text goes to stderr).
     Bench(BenchArgs),
     /// Convergence of the Couette error in N and beta (the poster's "second order").
     ///
@@ -108,7 +132,7 @@ struct RunArgs {
     /// A built-in case (see `sph cases`) or a scene file ending in .toml.
     #[arg(value_name = "CASE|FILE")]
     scene: String,
-    /// Output directory [default: out/<case>].
+    /// Output directory [default: out/CASE].
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
     /// Replace a non-empty output directory that sph did not write.
@@ -173,6 +197,9 @@ struct RunArgs {
     /// seconds (resume with `sph resume DIR` if the process is lost).
     #[arg(long, value_name = "S")]
     checkpoint_every: Option<f64>,
+    /// Print summary.json as one JSON object on stdout (the table goes to stderr).
+    #[arg(long)]
+    json: bool,
     /// No progress bar and no table.
     #[arg(long)]
     quiet: bool,
@@ -186,6 +213,9 @@ struct ResumeArgs {
     /// Worker threads; 0 = all cores [default: the run's own].
     #[arg(long, value_name = "T")]
     threads: Option<usize>,
+    /// Print summary.json as one JSON object on stdout (the table goes to stderr).
+    #[arg(long)]
+    json: bool,
     /// No progress bar and no table.
     #[arg(long)]
     quiet: bool,
@@ -243,6 +273,9 @@ fn sane_threads(requested: usize) -> usize {
 }
 
 fn run_scene(args: &RunArgs) -> Result<()> {
+    if args.json {
+        json_mode();
+    }
     let mut settings = args.settings()?;
     settings.threads = sane_threads(settings.threads);
     let dir = args
@@ -258,6 +291,9 @@ fn run_scene(args: &RunArgs) -> Result<()> {
 }
 
 fn resume_scene(args: &ResumeArgs) -> Result<()> {
+    if args.json {
+        json_mode();
+    }
     let dir = &args.dir;
     output::check_out_dir(dir, false)?;
     let ck = checkpoint::Checkpoint::read(dir)?;
@@ -333,6 +369,9 @@ fn execute(
         },
     )?;
     let (reference, written) = publish(&record, record.checkpoint.as_deref())?;
+    if HUMAN_TO_STDERR.load(Ordering::Relaxed) {
+        json_out(&read_summary(dir)?);
+    }
     if !quiet {
         let p = &record.physics;
         outln!(
@@ -408,6 +447,15 @@ fn execute(
     }
 }
 
+/// The summary.json just published in `dir`, for `--json`.
+fn read_summary(dir: &std::path::Path) -> Result<serde_json::Value> {
+    let path = dir.join("summary.json");
+    let text = std::fs::read_to_string(&path)
+        .map_err(|e| sph_std::error::Error::io("read summary", &path, e))?;
+    serde_json::from_str(&text)
+        .map_err(|e| sph_std::error::Error::config("summary", path.display(), e.to_string()))
+}
+
 fn list_cases() -> Result<()> {
     for c in cases::CASES {
         outln!("{:<20} {}", c.name, c.about);
@@ -420,7 +468,7 @@ struct StudyArgs {
     /// Fewer resolutions (under two minutes on 2 cores).
     #[arg(long)]
     quick: bool,
-    /// Output directory [default: out/<command>].
+    /// Output directory [default: out/COMMAND].
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
     /// Replace a non-empty output directory that sph did not write.
@@ -579,7 +627,7 @@ struct BenchArgs {
         hide_default_value = true
     )]
     sizes: Vec<usize>,
-    /// Print one JSON object as the last line.
+    /// Print the report as one JSON object on stdout (the text goes to stderr).
     #[arg(long)]
     json: bool,
 }
@@ -596,6 +644,9 @@ fn run_bench(args: &BenchArgs) -> Result<()> {
         skin: args.skin,
         shuffle: args.shuffle,
     };
+    if args.json {
+        json_mode();
+    }
     if args.sweep {
         let (rows, slope) = bench::sweep(&config, &args.sizes)?;
         outln!(
@@ -623,8 +674,7 @@ fn run_bench(args: &BenchArgs) -> Result<()> {
         }
         outln!("log-log slope of time per step against N: {slope:.3}");
         if args.json {
-            let line = serde_json::json!({ "rows": rows, "slope": slope });
-            outln!("{line}");
+            json_out(&serde_json::json!({ "rows": rows, "slope": slope }));
         }
         return Ok(());
     }
@@ -659,8 +709,8 @@ fn run_bench(args: &BenchArgs) -> Result<()> {
         report.bytes_per_particle
     );
     if args.json {
-        match serde_json::to_string(&report) {
-            Ok(line) => outln!("{line}"),
+        match serde_json::to_value(&report) {
+            Ok(value) => json_out(&value),
             Err(e) => {
                 return Err(sph_std::error::Error::config(
                     "json",
@@ -762,6 +812,9 @@ struct CouetteArgs {
     /// Write VTK particle snapshots (.vtu and a .pvd index) for ParaView.
     #[arg(long)]
     vtk: bool,
+    /// Print summary.json as one JSON object on stdout (the table goes to stderr).
+    #[arg(long)]
+    json: bool,
     /// No progress bar and no table.
     #[arg(long)]
     quiet: bool,
@@ -814,6 +867,9 @@ impl CouetteArgs {
 }
 
 fn run_couette(args: &CouetteArgs) -> Result<()> {
+    if args.json {
+        json_mode();
+    }
     let config = args.config()?;
     let bar = progress::Bar::new("couette", config.quiet);
     let (run, written) = output::in_dir(&config.out, args.overwrite, |stage| {
@@ -864,10 +920,16 @@ fn run_couette(args: &CouetteArgs) -> Result<()> {
             .collect();
         outln!("Wrote {} to {}", names.join(", "), config.out.display());
     }
+    if args.json {
+        json_out(&read_summary(&config.out)?);
+    }
     Ok(())
 }
 
 fn main() -> ExitCode {
+    if let Some(commit) = option_env!("SPH_GIT_COMMIT") {
+        sph_std::provenance::set_git_commit(commit);
+    }
     // SIGINT and SIGTERM: a scene run stops at the next step and still
     // publishes its results (marked incomplete), then exits 130 or 143.
     let interrupted = Arc::new(AtomicBool::new(false));

@@ -10,10 +10,10 @@
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use sph::core::exec::Executor;
-use sph::core::prelude::*;
-use sph::std::bench::{box_scene, BoxOptions};
-use sph::std::driver::Rayon;
+use sph_core::exec::Executor;
+use sph_core::prelude::*;
+use sph_std::bench::{box_scene, BoxOptions};
+use sph_std::driver::Rayon;
 
 struct Counting;
 

@@ -199,8 +199,8 @@ fn a_bad_config_file_names_the_line_key_and_value() {
 #[test]
 fn the_documented_example_config_is_the_default() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/couette.toml");
-    let documented = sph::std::config::CouetteConfig::from_file(&path).unwrap();
-    assert_eq!(documented, sph::std::config::CouetteConfig::default());
+    let documented = sph_std::config::CouetteConfig::from_file(&path).unwrap();
+    assert_eq!(documented, sph_std::config::CouetteConfig::default());
 }
 
 #[test]
@@ -633,7 +633,7 @@ fn runs_too_large_for_memory_are_refused_before_allocating() {
     assert!(err.contains("GiB") && err.contains("`particles`"), "{err}");
     // 6e7 particles in the benchmark box: about 26 GiB, where that is more
     // than the machine has (the test must not allocate it elsewhere).
-    let available = sph::std::resources::available_memory().unwrap_or(0) as f64;
+    let available = sph_std::resources::available_memory().unwrap_or(0) as f64;
     if available > 0.0 && available < 25.0 * (1u64 << 30) as f64 {
         let (code, err) = status_and_error(&["bench", "--n", "60000000", "--steps", "1"]);
         assert_eq!(code, Some(2), "{err}");
@@ -698,4 +698,63 @@ fn benchmark_edge_cases_are_clear_errors_or_work() {
         assert_eq!(code, Some(2), "{args:?}: {err}");
         assert!(err.contains(key), "{err}");
     }
+}
+
+#[test]
+fn json_flags_print_one_object_and_nothing_else_on_stdout() {
+    let out = scratch("json");
+    let dir = out.to_string_lossy().into_owned();
+    let couette = [
+        "couette",
+        "--particles-across",
+        "16",
+        "--t-end",
+        "0.05",
+        "--output-times",
+        "0.0225,0.05",
+        "--json",
+        "--out",
+        &dir,
+    ];
+    let run = [
+        "run",
+        "poiseuille",
+        "--resolution",
+        "10",
+        "--t-end",
+        "0.02",
+        "--json",
+        "--overwrite",
+        "--out",
+        &dir,
+    ];
+    let bench = [
+        "bench", "--n", "400", "--steps", "2", "--warmup", "1", "--json",
+    ];
+    let sweep = [
+        "bench", "--sweep", "--sizes", "100,400", "--steps", "2", "--json",
+    ];
+    for args in [&couette[..], &run, &bench, &sweep] {
+        let result = sph().args(args).output().unwrap();
+        assert!(result.status.success(), "{args:?}: {result:?}");
+        let stdout = String::from_utf8(result.stdout).unwrap();
+        // The whole of stdout parses as one JSON value, an object.
+        let value: serde_json::Value = serde_json::from_str(&stdout)
+            .unwrap_or_else(|e| panic!("{args:?}: stdout is not one JSON object ({e}): {stdout}"));
+        assert!(value.is_object(), "{args:?}");
+        // The human text went to stderr.
+        assert!(!result.stderr.is_empty(), "{args:?}");
+        if args[0] != "bench" {
+            // Summaries carry their units, version and time of writing.
+            assert_eq!(value["sph_version"], env!("CARGO_PKG_VERSION"));
+            assert_eq!(value["units"]["velocity"], "m/s");
+            let stamp = value["timestamp"].as_str().unwrap();
+            assert!(stamp.len() == 20 && stamp.ends_with('Z'), "{stamp}");
+            let file: serde_json::Value =
+                serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap())
+                    .unwrap();
+            assert_eq!(file, value, "{args:?}: stdout is summary.json");
+        }
+    }
+    let _ = std::fs::remove_dir_all(&out);
 }

@@ -3,9 +3,9 @@
 //! which Richardson's differences expose; with beta growing as sqrt(N) (and
 //! the regulariser tied to dx) the error keeps falling toward zero.
 
-use sph::std::config::KernelName;
-use sph::std::couette::Silent;
-use sph::std::studies::{orders, study_config, study_run, ConvergenceRow};
+use sph_std::config::KernelName;
+use sph_std::couette::Silent;
+use sph_std::studies::{orders, study_config, study_run, ConvergenceRow};
 
 fn sweep(
     kernel: KernelName,

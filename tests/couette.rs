@@ -1,8 +1,8 @@
 //! Couette validation against the exact series (issue: the poster's central result).
 
-use sph::std::config::CouetteConfig;
-use sph::std::couette::{self, Silent, HEADLINE_T_STAR};
-use sph::std::output;
+use sph_std::config::CouetteConfig;
+use sph_std::couette::{self, Silent, HEADLINE_T_STAR};
+use sph_std::output;
 
 #[test]
 fn default_case_meets_the_validation_bounds() {
@@ -78,11 +78,11 @@ fn single_precision_and_continuity_density_agree_with_the_reference_run() {
     let reference = couette::run(&base, &Silent).unwrap().errors();
     for variant in [
         CouetteConfig {
-            precision: sph::std::config::Precision::F32,
+            precision: sph_std::config::Precision::F32,
             ..base.clone()
         },
         CouetteConfig {
-            density: sph::std::config::DensityMode::Continuity,
+            density: sph_std::config::DensityMode::Continuity,
             ..base.clone()
         },
     ] {

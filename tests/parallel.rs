@@ -1,10 +1,10 @@
 //! Results do not depend on the thread count or the chunk size: the core's
 //! passes are gather-only, so serial and rayon runs agree bit for bit.
 
-use sph::core::exec::{Chunked, Executor};
-use sph::core::prelude::*;
-use sph::std::bench::{box_scene, BoxOptions};
-use sph::std::driver::Rayon;
+use sph_core::exec::{Chunked, Executor};
+use sph_core::prelude::*;
+use sph_std::bench::{box_scene, BoxOptions};
+use sph_std::driver::Rayon;
 
 type V2 = Vector<f64, 2>;
 

@@ -6,10 +6,10 @@
 use std::path::Path;
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use sph::std::cases::{self, Settings};
-use sph::std::checkpoint::Checkpoint;
-use sph::std::couette::{Progress, Silent};
-use sph::std::scene::{self, Frame, RunControl, RunRecord};
+use sph_std::cases::{self, Settings};
+use sph_std::checkpoint::Checkpoint;
+use sph_std::couette::{Progress, Silent};
+use sph_std::scene::{self, Frame, RunControl, RunRecord};
 
 fn settings(case: &str, resolution: usize, t_end: f64, threads: usize) -> Settings {
     let mut s = (cases::find(case).unwrap().defaults)();

@@ -2,10 +2,10 @@
 //! monitor against the Taylor-Green collapse, one engine for Couette, and
 //! the cases against their exact solutions (CI-sized resolutions).
 
-use sph::std::cases::{self, Settings};
-use sph::std::config::CouetteConfig;
-use sph::std::couette::{self, Silent};
-use sph::std::scene::{self, RunRecord};
+use sph_std::cases::{self, Settings};
+use sph_std::config::CouetteConfig;
+use sph_std::couette::{self, Silent};
+use sph_std::scene::{self, RunRecord};
 
 fn settings(case: &str) -> Settings {
     let mut s = (cases::find(case).unwrap().defaults)();
@@ -76,8 +76,8 @@ fn sph_run_couette_and_the_couette_command_share_one_engine() {
     s.resolution = 16;
     s.t_end = 0.05;
     s.output_interval = 0.025;
-    s.viscosity = sph::std::config::ViscosityForm::Morris;
-    s.density = sph::std::config::DensityMode::Summation;
+    s.viscosity = sph_std::config::ViscosityForm::Morris;
+    s.density = sph_std::config::DensityMode::Summation;
     let a = run(&s);
     let b = couette::run(
         &CouetteConfig {

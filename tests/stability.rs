@@ -4,8 +4,8 @@
 //! the plate velocities (0 and U), v_y stays 0, and with c0 = 10 U the density
 //! stays within the weakly compressible band |rho/rho0 - 1| ~ (U/c0)^2.
 
-use sph::std::config::{CouetteConfig, KernelName, Precision, ViscosityForm};
-use sph::std::couette::{self, CouetteRun, Silent};
+use sph_std::config::{CouetteConfig, KernelName, Precision, ViscosityForm};
+use sph_std::couette::{self, CouetteRun, Silent};
 
 fn run(cfg: CouetteConfig) -> CouetteRun {
     couette::run(
@@ -170,7 +170,7 @@ fn reynolds_1000_is_reported_not_hidden() {
         ..short(20, 0.02)
     };
     match couette::run(&cfg, &Silent) {
-        Err(sph::std::error::Error::Diverged(reason)) => {
+        Err(sph_std::error::Error::Diverged(reason)) => {
             let step: u64 = reason
                 .split("unstable at step ")
                 .nth(1)

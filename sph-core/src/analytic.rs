@@ -7,7 +7,7 @@ use crate::error::{Error, Result};
 
 const PI: f64 = core::f64::consts::PI;
 
-/// Impulsively started planar Couette flow (`shared/physics.md` 6.a).
+/// Impulsively started planar Couette flow (`docs/physics.md` 6.a).
 ///
 /// Plates at `y_lower` (at rest) and `y_upper` (moving at `u` along x from
 /// `t = 0`), fluid at rest at `t = 0`, kinematic viscosity `nu`. With gap
@@ -111,7 +111,7 @@ impl Couette {
     }
 }
 
-/// Plane Poiseuille flow started from rest (`shared/physics.md` 6.b).
+/// Plane Poiseuille flow started from rest (`docs/physics.md` 6.b).
 ///
 /// Walls at `y_lower` and `y_upper` (gap `H`, both at rest), a body force `f`
 /// per unit mass along x switched on at `t = 0`, kinematic viscosity `nu`.
@@ -194,7 +194,7 @@ impl Poiseuille {
 mod tests {
     use super::*;
 
-    /// Reference values from `shared/physics.md` 6.a (convention A, u/U, computed there independently).
+    /// Reference values from `docs/physics.md` 6.a (convention A, u/U, computed there independently).
     #[test]
     fn matches_reference_table() {
         let c = Couette::new(0.0, 1.0, 1.0, 1.0).unwrap();
@@ -231,7 +231,7 @@ mod tests {
         assert!(early.is_finite() && early > 0.0 && early < 1.25e-5);
     }
 
-    /// Reference values of `shared/physics.md` 6.b (u/u_max at the centre and at y = H/4).
+    /// Reference values of `docs/physics.md` 6.b (u/u_max at the centre and at y = H/4).
     #[test]
     fn poiseuille_matches_reference_table() {
         let p = Poiseuille::new(0.0, 1.0, 8.0, 1.0).unwrap();

@@ -60,7 +60,7 @@ pub enum Reflection {
     /// ghosts then move with the velocity the no-slip rule gives them, so a
     /// sheared lattice continues through the wall unchanged; with mirrored
     /// ghosts the rows near the wall lose their point symmetry as they slide
-    /// (`shared/physics.md` 10) and a steady linear profile is no longer an
+    /// (`docs/physics.md` 10) and a steady linear profile is no longer an
     /// exact discrete solution.
     Point,
 }

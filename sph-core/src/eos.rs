@@ -1,4 +1,4 @@
-//! Equations of state `P(rho)` for weakly compressible flow (`shared/physics.md` 3.3).
+//! Equations of state `P(rho)` for weakly compressible flow (`docs/physics.md` 3.3).
 
 use crate::error::{Error, Result};
 use crate::math::Math;

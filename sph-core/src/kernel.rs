@@ -4,7 +4,7 @@
 //! its derivative through `F(q) = f'(q) / q` (finite at `q = 0`, so no division
 //! by `r` is ever needed), the support `kappa` (W vanishes for `q >= kappa`)
 //! and the normalisation `sigma_d` for `d = 1, 2, 3`. Constants follow
-//! `shared/physics.md` section 2, where each was re-derived symbolically; the
+//! `docs/physics.md` section 2, where each was re-derived symbolically; the
 //! tests below check every one by quadrature.
 //!
 //! The smoothing length `h` is explicit; the overlap factor of the seed is

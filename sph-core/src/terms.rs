@@ -13,7 +13,7 @@
 //! are sources, never destinations. This is what makes chunked and parallel
 //! evaluation exact without atomics.
 //!
-//! Conventions (`shared/physics.md`): `r_ij = x_i - x_j`, `v_ij = v_i - v_j`,
+//! Conventions (`docs/physics.md`): `r_ij = x_i - x_j`, `v_ij = v_i - v_j`,
 //! `grad W = F r_ij` with `F = (1/r) dW/dr <= 0`, and `eta2` is the absolute
 //! regulariser `eta^2` (a fraction of `h^2`, 0.01 by default).
 
@@ -532,7 +532,7 @@ fn regularised<F: Real>(r2: F, eta2: F) -> F {
     (r2 + eta2).max(F::MIN_POSITIVE)
 }
 
-/// Laminar viscosity of Morris, Fox & Zhu (1997), `shared/physics.md` 1.6:
+/// Laminar viscosity of Morris, Fox & Zhu (1997), `docs/physics.md` 1.6:
 /// `dv_i/dt = sum_j m_j 2 mu / (rho_i rho_j) (r_ij . grad W) / (r^2 + eta^2) v_ij`.
 ///
 /// Its continuum limit is exactly `nu lap v`. Conserves linear momentum; not
@@ -571,7 +571,7 @@ impl<S: Space> Term<S> for MorrisViscosity<S::Real> {
     }
 }
 
-/// The seed's viscous slot, corrected (Monaghan-Cleary, `shared/physics.md` 1.4):
+/// The seed's viscous slot, corrected (Monaghan-Cleary, `docs/physics.md` 1.4):
 /// `Pi_ij = -2 (d + 2) mu / (rho_i rho_j) (v_ij . r_ij) / (r^2 + eta^2)`,
 /// `dv_i/dt = -sum_j m_j Pi_ij grad_i W_ij`.
 ///
@@ -694,7 +694,7 @@ const fn fit_len(dim: usize) -> usize {
 /// per particle. On a lattice it agrees with the Morris operator to its
 /// lattice bias; on a sheared lattice, where the Morris operator's bias
 /// depends on how far the rows have slid (what makes long channel-flow runs
-/// drift, `shared/physics.md` 10), it has none.
+/// drift, `docs/physics.md` 10), it has none.
 ///
 /// The kinematic viscosity is `mu / rho0`, not `mu / rho_i`: the weakly
 /// compressible model stands in for an incompressible liquid, whose
@@ -1015,7 +1015,7 @@ impl<S: Space> Term<S> for Shifting<S::Real> {
 }
 
 /// Density diffusion of Molteni & Colagrossi (2009), the delta-SPH term
-/// (`shared/physics.md` 3.2): with continuity density,
+/// (`docs/physics.md` 3.2): with continuity density,
 ///
 /// `d rho_i/dt += 2 delta h c0 sum_j V_j (rho_i - rho_j) (r_ij . grad_i W_ij) / (r^2 + eta^2)`,
 ///

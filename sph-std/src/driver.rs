@@ -175,7 +175,7 @@ impl<S: Space> Buffers<S> {
     /// Copies a checkpoint's buffers in ([`save`] wrote them).
     ///
     /// # Errors
-    /// [`Error::Config`] (key `checkpoint`) naming the first buffer whose
+    /// [`crate::error::Error::Config`] (key `checkpoint`) naming the first buffer whose
     /// length does not match these buffers (a checkpoint of another scene
     /// or resolution).
     pub fn load(&mut self, arrays: &Arrays) -> crate::error::Result<()> {

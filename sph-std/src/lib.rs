@@ -25,6 +25,7 @@ pub mod error;
 pub mod output;
 pub mod plot;
 pub mod progress;
+pub mod provenance;
 pub mod report;
 pub mod resources;
 pub mod scene;

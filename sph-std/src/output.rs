@@ -211,6 +211,8 @@ struct Summary<'a> {
     linf_error: Option<f64>,
     l2_error: Option<f64>,
     errors: Vec<ErrorEntry>,
+    #[serde(flatten)]
+    provenance: crate::provenance::Provenance,
 }
 
 /// `summary.json` of a run.
@@ -267,6 +269,7 @@ pub fn summary_json(run: &CouetteRun) -> Result<String> {
                 l2: e.l2,
             })
             .collect(),
+        provenance: crate::provenance::now(),
     };
     serde_json::to_string_pretty(&summary)
         .map_err(|e| Error::config("summary", "json", e.to_string()))

@@ -43,6 +43,8 @@ struct Summary<'a> {
     outputs: &'a [Diagnostics],
     #[serde(skip_serializing_if = "Option::is_none")]
     reference: Option<&'a Reference>,
+    #[serde(flatten)]
+    provenance: crate::provenance::Provenance,
 }
 
 #[derive(Serialize)]
@@ -92,6 +94,7 @@ pub fn summary_json(
         storage_bytes: record.storage_bytes,
         outputs: &record.outputs,
         reference,
+        provenance: crate::provenance::now(),
     };
     let mut value = serde_json::to_value(&summary)
         .map_err(|e| Error::config("summary", "json", e.to_string()))?;

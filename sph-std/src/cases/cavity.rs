@@ -8,7 +8,7 @@
 //! between outputs falls below 1e-4 per `L/U`. The centre-line profiles
 //! `u(x = 1/2, y)` and `v(x, y = 1/2)` are then compared with the tables of
 //! Ghia, Ghia & Shin, J. Comput. Phys. 48 (1982) 387-411, Tables I and II
-//! (Re = 100 columns), typed in from `shared/physics.md` section 11.
+//! (Re = 100 columns), typed in from `docs/physics.md` section 11.
 //! Default regularisation: particle shifting; default operators: corrected
 //! continuity density and the consistent Laplacian.
 

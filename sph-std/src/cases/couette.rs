@@ -1,4 +1,4 @@
-//! `couette`: impulsively started plane Couette flow (`shared/physics.md` 6.a).
+//! `couette`: impulsively started plane Couette flow (`docs/physics.md` 6.a).
 //!
 //! Default operators: corrected continuity density and the consistent
 //! Laplacian (`density = "corrected"`, `viscosity = "corrected"`); `sph

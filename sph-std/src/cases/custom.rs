@@ -36,7 +36,7 @@
 //! Initial velocity profiles: `rest`; `uniform` with `value` (a vector);
 //! `shear` with `rate`, `u_x = rate (y - origin_y)`; `taylor-green` with
 //! `amplitude` and `wavelength`, the Taylor-Green velocity and its pressure
-//! (`shared/physics.md` 6.c). A custom scene has no exact solution; its
+//! (`docs/physics.md` 6.c). A custom scene has no exact solution; its
 //! outputs report the diagnostics, and `examples/custom-channel.toml`
 //! shows a channel whose steady state the tests check against theory.
 

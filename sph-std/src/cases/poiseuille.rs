@@ -1,4 +1,4 @@
-//! `poiseuille`: plane Poiseuille flow started from rest (`shared/physics.md` 6.b).
+//! `poiseuille`: plane Poiseuille flow started from rest (`docs/physics.md` 6.b).
 //!
 //! Walls at `y = 0` and `y = H = 1 mm`, both at rest, a body force `F` along
 //! x from `t = 0`, periodic strip along x. Defaults: `nu = 1e-6 m^2/s`,

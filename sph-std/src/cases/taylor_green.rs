@@ -1,4 +1,4 @@
-//! `taylor-green`: the decaying Taylor-Green vortex (`shared/physics.md` 6.c).
+//! `taylor-green`: the decaying Taylor-Green vortex (`docs/physics.md` 6.c).
 //!
 //! Unit box `[0, 1)^2`, periodic both ways, `U = 1`, `nu = 1 / Re`
 //! (Re 100 by default), `rho0 = 1`, `c0 = 10 U`, particles at cell centres.
