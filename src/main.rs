@@ -11,6 +11,7 @@ use sph_std::config::{
     CouetteConfig, DensityMode, KernelName, MathBackend, Precision, ViscosityForm,
 };
 use sph_std::error::Result;
+use sph_std::output::VtkEncoding;
 use sph_std::scene::{Regularise, RunControl, RunRecord, Stop};
 use sph_std::{bench, checkpoint, couette, output, progress, report, studies};
 
@@ -193,6 +194,9 @@ struct RunArgs {
     /// Write VTK particle snapshots (.vtu and a .pvd index).
     #[arg(long)]
     vtk: bool,
+    /// Write the VTK snapshots as ASCII text instead of binary.
+    #[arg(long)]
+    vtk_ascii: bool,
     /// Publish the results so far with a checkpoint every S simulated
     /// seconds (resume with `sph resume DIR` if the process is lost).
     #[arg(long, value_name = "S")]
@@ -284,6 +288,7 @@ fn run_scene(args: &RunArgs) -> Result<()> {
         .unwrap_or_else(|| PathBuf::from("out").join(&settings.case));
     let options = checkpoint::Options {
         vtk: args.vtk,
+        vtk_ascii: args.vtk_ascii,
         checkpoint_every: args.checkpoint_every.unwrap_or(0.0),
         allow_long_run: args.allow_long_run,
     };
@@ -333,7 +338,15 @@ fn execute(
                 Some(figure),
                 reference.as_ref(),
                 stage,
-                options.vtk,
+                options.vtk.then_some(report::Vtk {
+                    encoding: if options.vtk_ascii {
+                        VtkEncoding::Ascii
+                    } else {
+                        VtkEncoding::Binary
+                    },
+                    exact: scene.exact.as_ref(),
+                    error_decay: scene.error_decay,
+                }),
             )?;
             if let Some(ck) = ck {
                 let mut ck = ck.clone();
@@ -812,6 +825,9 @@ struct CouetteArgs {
     /// Write VTK particle snapshots (.vtu and a .pvd index) for ParaView.
     #[arg(long)]
     vtk: bool,
+    /// Write the VTK snapshots as ASCII text instead of binary.
+    #[arg(long)]
+    vtk_ascii: bool,
     /// Print summary.json as one JSON object on stdout (the table goes to stderr).
     #[arg(long)]
     json: bool,
@@ -857,6 +873,7 @@ impl CouetteArgs {
             output_times
         );
         c.vtk |= self.vtk;
+        c.vtk_ascii |= self.vtk_ascii;
         c.quiet |= self.quiet;
         c.allow_long_run |= self.allow_long_run;
         c.threads = sane_threads(c.threads);

@@ -62,6 +62,8 @@ pub struct Arrays {
 pub struct Options {
     /// VTK snapshots were asked for.
     pub vtk: bool,
+    /// In ASCII rather than binary.
+    pub vtk_ascii: bool,
     /// Simulated seconds between checkpoints (0: none).
     pub checkpoint_every: f64,
     /// The run may exceed the step ceiling.
@@ -260,6 +262,7 @@ impl Checkpoint {
             w.f64s(&f.p);
         }
         w.u64(u64::from(self.options.vtk));
+        w.u64(u64::from(self.options.vtk_ascii));
         w.f64(self.options.checkpoint_every);
         w.u64(u64::from(self.options.allow_long_run));
         w.0
@@ -358,6 +361,7 @@ impl Checkpoint {
         }
         let options = Options {
             vtk: r.bool()?,
+            vtk_ascii: r.bool()?,
             checkpoint_every: r.f64()?,
             allow_long_run: r.bool()?,
         };
@@ -447,6 +451,7 @@ mod tests {
             }],
             options: Options {
                 vtk: true,
+                vtk_ascii: false,
                 checkpoint_every: 0.5,
                 allow_long_run: false,
             },

@@ -201,6 +201,8 @@ pub struct CouetteConfig {
     pub out: PathBuf,
     /// Write VTK particle snapshots (`.vtu`, with a `.pvd` index) for ParaView.
     pub vtk: bool,
+    /// Write the VTK snapshots as ASCII text instead of binary.
+    pub vtk_ascii: bool,
     /// No progress bar and no table.
     pub quiet: bool,
     /// Run even when it needs more than `sph_std::scene::MAX_STEPS` steps.
@@ -233,6 +235,7 @@ impl Default for CouetteConfig {
             output_times: default_output_times(),
             out: PathBuf::from("out/couette"),
             vtk: false,
+            vtk_ascii: false,
             quiet: false,
             allow_long_run: false,
         }
@@ -248,6 +251,15 @@ pub(crate) fn check(ok: bool, key: &str, value: impl fmt::Display, rule: &str) -
 }
 
 impl CouetteConfig {
+    /// How the VTK snapshots are encoded.
+    pub fn vtk_encoding(&self) -> crate::output::VtkEncoding {
+        if self.vtk_ascii {
+            crate::output::VtkEncoding::Ascii
+        } else {
+            crate::output::VtkEncoding::Binary
+        }
+    }
+
     /// Reads a TOML file; unknown keys and wrong types are errors naming the
     /// file, line, key and value.
     ///

@@ -128,14 +128,18 @@ pub struct Profile {
 pub struct Snapshot {
     /// Time in seconds.
     pub t: f64,
-    /// Positions (absolute).
-    pub x: Vec<[f64; 2]>,
+    /// Positions (absolute; unused components zero).
+    pub x: Vec<[f64; 3]>,
     /// Velocities.
-    pub v: Vec<[f64; 2]>,
+    pub v: Vec<[f64; 3]>,
     /// Densities.
     pub rho: Vec<f64>,
     /// Pressures.
     pub p: Vec<f64>,
+    /// The exact velocity at each particle, where there is one.
+    pub v_exact: Option<Vec<[f64; 3]>>,
+    /// The velocity errors are written relative to this.
+    pub error_scale: f64,
 }
 
 /// Errors against the exact series at one output time, relative to `U`.
@@ -327,15 +331,30 @@ pub fn run(cfg: &CouetteConfig, progress: &dyn Progress) -> Result<CouetteRun> {
         })
         .collect();
     let snapshots = if cfg.vtk {
+        let g = Geometry::of(cfg);
+        // The series as profile.csv evaluates it.
+        let exact = Couette {
+            y_lower: g.y_lower,
+            y_upper: g.y_upper,
+            u: cfg.u_wall,
+            nu: cfg.nu,
+            tolerance: 1e-14,
+        };
         record
             .frames
             .iter()
             .map(|f| Snapshot {
                 t: f.t,
-                x: f.x.iter().map(|x| [x[0], x[1]]).collect(),
-                v: f.v.iter().map(|v| [v[0], v[1]]).collect(),
+                x: f.x.clone(),
+                v: f.v.clone(),
                 rho: f.rho.clone(),
                 p: f.p.clone(),
+                v_exact: Some(
+                    f.x.iter()
+                        .map(|x| [exact.velocity(x[1], f.t), 0.0, 0.0])
+                        .collect(),
+                ),
+                error_scale: cfg.u_wall,
             })
             .collect()
     } else {

@@ -10,9 +10,9 @@ use serde::Serialize;
 use crate::cases::{Reference, Settings};
 use crate::couette::Snapshot;
 use crate::error::{Error, Result};
-use crate::output::{pvd, vtu, write_atomic};
+use crate::output::{pvd, vtu, write_atomic, VtkEncoding};
 use crate::plot::{line_plot, Axes, Series};
-use crate::scene::{Diagnostics, Monitor, Physics, RunRecord};
+use crate::scene::{Diagnostics, Monitor, Physics, RunRecord, VectorField};
 
 #[derive(Serialize)]
 struct Summary<'a> {
@@ -204,9 +204,21 @@ pub fn diagnostics_png(record: &RunRecord) -> Result<Vec<u8>> {
     )
 }
 
+/// The VTK snapshots a run writes: their encoding and, where the scene has
+/// an exact solution, what the `velocity_exact` and `error` arrays need.
+#[derive(Clone, Copy)]
+pub struct Vtk<'a> {
+    /// Binary (default) or ASCII.
+    pub encoding: VtkEncoding,
+    /// The scene's exact velocity field, if any.
+    pub exact: Option<&'a VectorField>,
+    /// Errors are relative to `velocity_scale * exp(error_decay * t)`.
+    pub error_decay: f64,
+}
+
 /// Writes every output of a run into `dir` (`case.png` when the case has a
 /// figure, the comparison with reference data in summary.json when it has
-/// one; VTK snapshots with `vtk`, 2D only); returns the paths written.
+/// one; VTK snapshots with `vtk`, in 2D and 3D); returns the paths written.
 ///
 /// # Errors
 /// [`Error::Io`] naming the file that could not be written.
@@ -216,7 +228,7 @@ pub fn write_record(
     figure: Option<Vec<u8>>,
     reference: Option<&Reference>,
     dir: &Path,
-    vtk: bool,
+    vtk: Option<Vtk<'_>>,
 ) -> Result<Vec<PathBuf>> {
     let mut written = Vec::new();
     let mut put = |name: &str, bytes: &[u8]| -> Result<()> {
@@ -237,18 +249,22 @@ pub fn write_record(
     if let Some(png) = figure {
         put("case.png", &png)?;
     }
-    if vtk && record.dim == 2 {
+    if let Some(vtk) = vtk {
         let mut entries = Vec::new();
         for (k, f) in record.frames.iter().enumerate() {
             let snap = Snapshot {
                 t: f.t,
-                x: f.x.iter().map(|x| [x[0], x[1]]).collect(),
-                v: f.v.iter().map(|v| [v[0], v[1]]).collect(),
+                x: f.x.clone(),
+                v: f.v.clone(),
                 rho: f.rho.clone(),
                 p: f.p.clone(),
+                v_exact: vtk
+                    .exact
+                    .map(|field| f.x.iter().map(|x| field(*x, f.t)).collect()),
+                error_scale: record.velocity_scale * (vtk.error_decay * f.t).exp(),
             };
             let name = format!("particles_{k:04}.vtu");
-            put(&name, vtu(&snap).as_bytes())?;
+            put(&name, vtu(&snap, vtk.encoding).as_bytes())?;
             entries.push((f.t, name));
         }
         put("particles.pvd", pvd(&entries).as_bytes())?;
