@@ -996,7 +996,14 @@ fn main() -> ExitCode {
                 .next()
                 .unwrap_or("invalid arguments")
                 .trim_start_matches("error: ");
-            eprintln!("sph: error: {first} (see sph --help)");
+            // clap's suggestion ("a similar argument exists") is on a line
+            // of its own: keep it on the one line.
+            let tip = text
+                .lines()
+                .find_map(|l| l.trim().strip_prefix("tip: "))
+                .map(|t| format!("; {t}"))
+                .unwrap_or_default();
+            eprintln!("sph: error: {first}{tip} (see sph --help)");
             return ExitCode::from(2);
         }
     };

@@ -281,6 +281,16 @@ fn an_unknown_case_or_key_is_one_clear_line_and_leaves_nothing() {
     let _ = std::fs::remove_file(&file);
 }
 
+/// Sends `signal` (a name such as `INT`) to process `pid` with kill(1).
+#[cfg(unix)]
+fn send(signal: &str, pid: u32) {
+    let status = Command::new("kill")
+        .args([format!("-{signal}"), pid.to_string()])
+        .status()
+        .unwrap();
+    assert!(status.success(), "kill -{signal} {pid}");
+}
+
 /// Sends `signal` to a long scene run after its first outputs and checks
 /// that it stops with `status`, publishing what it computed.
 #[cfg(unix)]
@@ -303,11 +313,7 @@ fn signal_stops_a_scene_run(signal: &str, status: i32) {
         .unwrap();
     // Let it pass its first output times (0.05 apart, ~100 steps each).
     std::thread::sleep(std::time::Duration::from_millis(2500));
-    let killed = Command::new("kill")
-        .args([format!("-{signal}"), child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(killed.success());
+    send(signal, child.id());
     let result = child.wait_with_output().unwrap();
     assert_eq!(result.status.code(), Some(status), "{signal}");
     let err = String::from_utf8_lossy(&result.stderr);
@@ -536,11 +542,7 @@ fn interrupt_after_first_checkpoint(out: &Path, signal: &str, threads: &str) -> 
         }
         std::thread::sleep(std::time::Duration::from_millis(20));
     }
-    let killed = Command::new("kill")
-        .args([format!("-{signal}"), child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(killed.success());
+    send(signal, child.id());
     child.wait().unwrap().code()
 }
 
@@ -757,4 +759,12 @@ fn json_flags_print_one_object_and_nothing_else_on_stdout() {
         }
     }
     let _ = std::fs::remove_dir_all(&out);
+}
+
+#[test]
+fn a_mistyped_flag_names_the_flag_meant_on_the_same_line() {
+    let (code, err) = status_and_error(&["couette", "--particle-across", "5"]);
+    assert_eq!(code, Some(2));
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.contains("'--particles-across'"), "{err}");
 }
