@@ -131,6 +131,23 @@ impl<S: Space> Wall<S> {
 }
 
 /// The box a scene lives in.
+///
+/// ```
+/// use sph_core::prelude::*;
+///
+/// // A channel: periodic along x, a wall at rest below, a lid sliding at
+/// // 1 m/s above; positions are stored relative to the lower corner.
+/// let domain = Domain::<D2<f64>>::new(Vector::new([10.0, 0.0]), Vector::new([2.0, 1.0]))?
+///     .with_periodic(0)?
+///     .with_wall(1, Side::Lower, Wall::no_slip())?
+///     .with_wall(1, Side::Upper, Wall::moving(Vector::new([1.0, 0.0])))?;
+/// let local = domain.to_local(Vector::new([10.5, 0.25]));
+/// assert_eq!(local, Vector::new([0.5, 0.25]));
+/// // Along x a position wraps; across y it must stay inside.
+/// assert_eq!(domain.wrap::<Libm>(Vector::new([2.5, 0.25])), Vector::new([0.5, 0.25]));
+/// assert!(domain.outside(Vector::new([0.5, 1.5])).is_some());
+/// # Ok::<(), Error>(())
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Domain<S: Space> {
     origin: S::Global,

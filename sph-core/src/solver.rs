@@ -208,6 +208,16 @@ impl<F: Real> Params<F> {
     /// Parameters with smoothing length `h`, equation of state `eos`, and
     /// the defaults `eta2 = 0.01`, speed limit = sound speed, 60 power
     /// iterations, no reordering, skin 0.1.
+    ///
+    /// ```
+    /// use sph_core::prelude::*;
+    ///
+    /// let dx = 1e-3 / 40.0;
+    /// let params = Params::new(1.3 * dx, Eos::Linear { rho0: 1e3, c0: 1.25e-4, p0: 0.0 })
+    ///     .with_eta2(0.01)
+    ///     .with_skin(0.1);
+    /// assert_eq!(params.viscous_iterations, 60);
+    /// ```
     pub fn new(h: F, eos: Eos<F>) -> Self {
         Self {
             h,
@@ -588,6 +598,44 @@ impl<S: Space, K: Kernel, M: Math<S::Real>> Pass<'_, S, K, M> {
 ///
 /// Type parameters: `S` space, `K` kernel, `M` math backend, `D` density
 /// group (`SummationDensity` or `()`), `T` force group.
+///
+/// A shear wave in a periodic box decays, as viscosity says it must:
+///
+/// ```
+/// use sph_core::prelude::*;
+///
+/// # fn main() -> Result<()> {
+/// let (n, l) = (12usize, 1.0f64);
+/// let dx = l / n as f64;
+/// let mut store: Store<D2<f64>, 144, 64> = Store::new();
+/// for j in 0..n {
+///     for i in 0..n {
+///         let y = (j as f64 + 0.5) * dx;
+///         let x = Vector::new([(i as f64 + 0.5) * dx, y]);
+///         let u = 1e-3 * (2.0 * core::f64::consts::PI * y).sin();
+///         store.push(x, Vector::new([u, 0.0]), 1.0, 1.0)?;
+///     }
+/// }
+/// let domain = Domain::new(Vector::new([0.0, 0.0]), Vector::new([l, l]))?
+///     .with_periodic(0)?
+///     .with_periodic(1)?;
+/// let (storage, n_fluid) = store.storage()?;
+/// let params = Params::new(1.3 * dx, Eos::Linear { rho0: 1.0, c0: 0.1, p0: 0.0 });
+/// let forces = (PressureGradient, MorrisViscosity { mu: 1e-2 });
+/// let mut solver = Solver::<D2<f64>, CubicSpline, Libm, _, _>::new(
+///     params, domain, storage, n_fluid, SummationDensity, forces,
+/// )?;
+/// solver.calibrate_mass(1.0)?;
+/// let speed = |s: &Solver<'_, D2<f64>, _, _, _, _>| s.max_speed();
+/// let before = speed(&solver);
+/// let dt = 0.5 * solver.limits().min();
+/// for _ in 0..50 {
+///     solver.step(dt)?;
+/// }
+/// assert!(speed(&solver) < before);
+/// # Ok(())
+/// # }
+/// ```
 #[derive(Debug)]
 pub struct Solver<'a, S: Space, K: Kernel, M: Math<S::Real>, D: Term<S>, T: Term<S>> {
     params: Params<S::Real>,

@@ -16,6 +16,18 @@ use crate::solver::Storage;
 use crate::space::{Space, VectorOps};
 
 /// Fixed-capacity storage (see the module docs).
+///
+/// ```
+/// use sph_core::prelude::*;
+///
+/// // 64 particle slots and 32 cell starts, no allocator.
+/// let mut store: Store<D2<f32>, 64, 32> = Store::new();
+/// store.push(Vector::new([0.1, 0.1]), Vector::zero(), 1.0, 1000.0)?;
+/// assert_eq!(store.len(), 1);
+/// let (storage, n_fluid) = store.storage()?;
+/// assert_eq!((storage.x.len(), n_fluid), (64, 1));
+/// # Ok::<(), Error>(())
+/// ```
 #[derive(Debug)]
 pub struct Store<S: Space, const N: usize, const C: usize> {
     x: Vec<S::Vector, N>,

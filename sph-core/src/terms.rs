@@ -537,6 +537,22 @@ fn regularised<F: Real>(r2: F, eta2: F) -> F {
 ///
 /// Its continuum limit is exactly `nu lap v`. Conserves linear momentum; not
 /// angular momentum (the force is along `v_ij`).
+///
+/// Terms compose as tuples (a scene pays only for the terms it names), and
+/// each checks its own coefficients:
+///
+/// ```
+/// use sph_core::prelude::*;
+///
+/// let g = BodyForce::<D2<f64>> { g: Vector::new([1e-4, 0.0]) };
+/// let forces = (PressureGradient, MorrisViscosity { mu: 1e-3 }, g);
+/// assert!(Term::<D2<f64>>::validate(&forces).is_ok());
+/// let bad = MorrisViscosity { mu: f64::NAN };
+/// assert!(matches!(
+///     Term::<D2<f64>>::validate(&bad),
+///     Err(Error::InvalidParameter { name: "mu", .. })
+/// ));
+/// ```
 #[derive(Clone, Copy, Debug)]
 pub struct MorrisViscosity<F> {
     /// Dynamic viscosity `mu`.
