@@ -300,7 +300,6 @@ fn resume_scene(args: &ResumeArgs) -> Result<()> {
         json_mode();
     }
     let dir = &args.dir;
-    output::check_out_dir(dir, false)?;
     let ck = checkpoint::Checkpoint::read(dir)?;
     let mut settings = Settings::from_file(&dir.join("config.toml"))?;
     if let Some(t) = args.threads {

@@ -528,6 +528,12 @@ pub fn lattice(scene: &Scene) -> Vec<[f64; 3]> {
     points
 }
 
+/// Thickness, in particle rows, of the slab of ghosts a wall mirrors: the
+/// list radius `(1 + skin) kappa beta dx`, rounded up, plus two rows.
+fn ghost_slab(kappa: f64, beta: f64) -> f64 {
+    (kappa * beta * (1.0 + SKIN)).ceil() + 2.0
+}
+
 fn estimate_particles(scene: &Scene) -> usize {
     let mut n = 1.0;
     for a in 0..scene.dim {
@@ -781,7 +787,7 @@ impl<E: Executor> Context<'_, '_, E> {
         let kappa = K::SUPPORT;
         // Ghost capacity: every wall mirrors a slab (1 + skin) R thick, plus
         // corner images; generous, since a shortfall is a clear error.
-        let slab = (kappa * s.physics.beta * (1.0 + SKIN)).ceil() + 2.0;
+        let slab = ghost_slab(kappa, s.physics.beta);
         let mut ghosts = 0usize;
         for a in 0..S::DIM {
             if let AxisSpec::Walls(lo, hi) = s.axes[a] {
@@ -1044,7 +1050,7 @@ impl<E: Executor> Context<'_, '_, E> {
         let mut ghosts = 0.0;
         for a in 0..S::DIM {
             if let AxisSpec::Walls(..) = s.axes[a] {
-                let slab = (K::SUPPORT * s.physics.beta * (1.0 + SKIN)).ceil() + 2.0;
+                let slab = ghost_slab(K::SUPPORT, s.physics.beta);
                 ghosts += 2.0 * 2.0 * n * slab * s.dx / s.extent[a];
             }
         }
