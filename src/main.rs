@@ -117,8 +117,8 @@ enum Command {
     /// whose state degenerates or diverges writes what it computed with
     /// `complete: false` and exits with status 1.
     Run(Box<RunArgs>),
-    /// Continues an interrupted or checkpointed `sph run` in its output
-    /// directory, bit for bit as if it had never stopped.
+    /// Continues an interrupted or checkpointed `sph run` or `sph couette`
+    /// in its output directory, bit for bit as if it had never stopped.
     ///
     /// DIR must hold checkpoint.bin (written at SIGINT or SIGTERM, and with
     /// --checkpoint-every while the run is going) and config.toml. The
@@ -301,6 +301,17 @@ fn resume_scene(args: &ResumeArgs) -> Result<()> {
     }
     let dir = &args.dir;
     let ck = checkpoint::Checkpoint::read(dir)?;
+    if ck.case == couette::CASE {
+        // A `sph couette` set: its config.toml is a Couette configuration.
+        let mut config = CouetteConfig::from_file(&dir.join("config.toml"))?;
+        config.out = dir.clone();
+        config.quiet = args.quiet;
+        if let Some(t) = args.threads {
+            config.threads = t;
+        }
+        config.threads = sane_threads(config.threads);
+        return couette_in(&config, false, Some(&ck));
+    }
     let mut settings = Settings::from_file(&dir.join("config.toml"))?;
     if let Some(t) = args.threads {
         settings.threads = t;
@@ -448,15 +459,7 @@ fn execute(
             .collect();
         outln!("Wrote {} to {}", names.join(", "), dir.display());
     }
-    match (&record.stop, &record.checkpoint) {
-        (None, _) => Ok(()),
-        (Some(stop), Some(_)) => Err(sph_std::error::Error::Stopped(format!(
-            "{}; `sph resume {}` continues the run",
-            stop.reason,
-            dir.display()
-        ))),
-        (Some(stop), None) => Err(sph_std::error::Error::Stopped(stop.reason.clone())),
-    }
+    stopped(record.stop.as_ref(), record.checkpoint.is_some(), dir)
 }
 
 /// The summary.json just published in `dir`, for `--json`.
@@ -887,11 +890,22 @@ fn run_couette(args: &CouetteArgs) -> Result<()> {
         json_mode();
     }
     let config = args.config()?;
+    couette_in(&config, args.overwrite, None)
+}
+
+/// Runs `sph couette` (from its start or from a checkpoint) and publishes
+/// its set in `config.out`: a run that stops early publishes what it
+/// computed, marked incomplete, with a checkpoint when it was interrupted.
+fn couette_in(
+    config: &CouetteConfig,
+    overwrite: bool,
+    resume: Option<&checkpoint::Checkpoint>,
+) -> Result<()> {
+    output::check_out_dir(&config.out, overwrite)?;
     let bar = progress::Bar::new("couette", config.quiet);
-    let (run, written) = output::in_dir(&config.out, args.overwrite, |stage| {
-        let run = couette::run(&config, &bar)?;
-        let written = output::write_couette(&run, stage)?;
-        Ok((run, written))
+    let run = couette::run_with(config, &bar, resume)?;
+    let written = output::in_dir(&config.out, overwrite, |stage| {
+        output::write_couette(&run, stage)
     })?;
     if !config.quiet {
         let g = &run.geometry;
@@ -936,10 +950,24 @@ fn run_couette(args: &CouetteArgs) -> Result<()> {
             .collect();
         outln!("Wrote {} to {}", names.join(", "), config.out.display());
     }
-    if args.json {
+    if HUMAN_TO_STDERR.load(Ordering::Relaxed) {
         json_out(&read_summary(&config.out)?);
     }
-    Ok(())
+    stopped(run.stop.as_ref(), run.checkpoint.is_some(), &config.out)
+}
+
+/// The error for a run that stopped early (its set is published), naming
+/// `sph resume` when it left a checkpoint.
+fn stopped(stop: Option<&Stop>, checkpoint: bool, dir: &std::path::Path) -> Result<()> {
+    match stop {
+        None => Ok(()),
+        Some(stop) if checkpoint => Err(sph_std::error::Error::Stopped(format!(
+            "{}; `sph resume {}` continues the run",
+            stop.reason,
+            dir.display()
+        ))),
+        Some(stop) => Err(sph_std::error::Error::Stopped(stop.reason.clone())),
+    }
 }
 
 fn main() -> ExitCode {

@@ -399,12 +399,35 @@ fn an_output_set_is_replaced_whole_or_not_at_all() {
             "summary.json"
         ]
     );
-    // A run that diverges leaves the previous set byte for byte.
+    // Bad input leaves the previous set byte for byte.
     let before = std::fs::read(out.join("summary.json")).unwrap();
+    let result = quick_run(&out, &["--nu=-1"]);
+    assert_eq!(result.status.code(), Some(2));
+    assert_eq!(std::fs::read(out.join("summary.json")).unwrap(), before);
+    // A run that diverges replaces it with what it computed, marked
+    // incomplete with the reason, and no checkpoint (nothing to continue).
     let result = quick_run(&out, &["--u-wall", "10", "--nu", "1e-9"]);
     assert_eq!(result.status.code(), Some(1));
-    assert!(String::from_utf8_lossy(&result.stderr).contains("nothing written"));
-    assert_eq!(std::fs::read(out.join("summary.json")).unwrap(), before);
+    let err = String::from_utf8_lossy(&result.stderr);
+    assert!(
+        err.contains("diverged") && err.contains("complete: false"),
+        "{err}"
+    );
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["complete"], false);
+    assert!(summary["reason"].as_str().unwrap().contains("diverged"));
+    assert_eq!(summary["U"], 10.0);
+    assert_eq!(
+        listing(&out),
+        [
+            ".sph-output",
+            "config.toml",
+            "profile.csv",
+            "profiles.png",
+            "summary.json"
+        ]
+    );
     // Nothing temporary is left beside it.
     let parent = out.parent().unwrap();
     let stem = out.file_name().unwrap().to_string_lossy().into_owned();
@@ -613,6 +636,75 @@ fn an_interrupted_or_killed_run_resumes_to_the_same_bytes() {
     let again = sph().args(["resume"]).arg(&whole).output().unwrap();
     assert_eq!(again.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&again.stderr).contains("checkpoint"));
+    let _ = std::fs::remove_dir_all(&whole);
+}
+
+/// `sph couette` interrupted by SIGINT publishes its profiles so far with a
+/// checkpoint; `sph resume` finishes it with the uninterrupted run's bytes.
+#[cfg(unix)]
+#[test]
+fn an_interrupted_couette_run_resumes_to_the_same_bytes() {
+    let args = [
+        "couette",
+        "--quiet",
+        "--particles-across",
+        "48",
+        "--t-end",
+        "4",
+        "--output-times",
+        "0.1,2,4",
+        "--threads",
+        "1",
+    ];
+    let whole = scratch("couette-whole");
+    let result = sph().args(args).arg("--out").arg(&whole).output().unwrap();
+    assert!(result.status.success(), "{result:?}");
+    let out = scratch("couette-int");
+    let child = sph()
+        .args(args)
+        .arg("--out")
+        .arg(&out)
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(700));
+    send("INT", child.id());
+    let result = child.wait_with_output().unwrap();
+    assert_eq!(
+        result.status.code(),
+        Some(130),
+        "the run ended before the signal: lengthen it ({result:?})"
+    );
+    let err = String::from_utf8_lossy(&result.stderr);
+    assert!(err.contains("sph resume"), "{err}");
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["complete"], false);
+    assert!(out.join("checkpoint.bin").is_file());
+    let resumed = sph()
+        .args(["resume", "--quiet"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(resumed.status.success(), "{resumed:?}");
+    assert!(
+        std::fs::read(out.join("profile.csv")).unwrap()
+            == std::fs::read(whole.join("profile.csv")).unwrap(),
+        "profile.csv differs from the uninterrupted run's"
+    );
+    let errors = |dir: &Path| {
+        let s: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap())
+                .unwrap();
+        (
+            s["errors"].clone(),
+            s["steps"].clone(),
+            s["complete"].clone(),
+        )
+    };
+    assert_eq!(errors(&out), errors(&whole));
+    assert!(!out.join("checkpoint.bin").exists());
+    let _ = std::fs::remove_dir_all(&out);
     let _ = std::fs::remove_dir_all(&whole);
 }
 

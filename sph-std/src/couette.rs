@@ -22,9 +22,10 @@ use std::sync::Arc;
 use sph_core::analytic::Couette;
 use sph_core::prelude::Limits;
 
+use crate::checkpoint::Checkpoint;
 use crate::config::{CouetteConfig, KernelName, ViscosityForm};
 use crate::error::{Error, Result};
-use crate::scene::{AxisSpec, Monitor, Physics, Region, Regularise, Scene, WallSpec};
+use crate::scene::{AxisSpec, Monitor, Physics, Region, Regularise, Scene, Stop, WallSpec};
 
 /// Verlet skin of the neighbour lists (fraction of the support radius).
 pub const SKIN: f64 = 0.1;
@@ -180,6 +181,11 @@ pub struct CouetteRun {
     pub profiles: Vec<Profile>,
     /// Snapshots at the output times (only with `vtk`).
     pub snapshots: Vec<Snapshot>,
+    /// Why the run ended before `t_end` (interrupted, diverged); `None`
+    /// for a complete run.
+    pub stop: Option<Stop>,
+    /// The state to continue from, when the run was interrupted.
+    pub checkpoint: Option<Box<Checkpoint>>,
 }
 
 /// Only output times with `nu t / (2L)^2` at or above this enter the headline errors
@@ -252,7 +258,7 @@ pub fn scene(cfg: &CouetteConfig) -> Scene {
     };
     let strip = geo.nx as f64 * geo.dx;
     Scene {
-        case: "couette".into(),
+        case: CASE.into(),
         dim: 2,
         origin: [cfg.shift, geo.y_lower, 0.0],
         extent: [strip, cfg.gap, 0.0],
@@ -309,18 +315,47 @@ pub fn scene(cfg: &CouetteConfig) -> Scene {
     }
 }
 
-/// Runs the case (on the scene layer, [`crate::scene::run`]).
+/// The scene name of `sph couette` runs, recorded in their checkpoints
+/// (`sph resume` tells them from `sph run` sets by it).
+pub const CASE: &str = "couette-validation";
+
+/// Runs the case (on the scene layer, [`crate::scene::run`]) to its end.
 ///
 /// # Errors
 /// [`Error::Config`] for an invalid configuration; [`Error::Core`] if the
-/// core rejects the scene or the run diverges (naming step and particle).
+/// core rejects the scene; [`Error::Diverged`] if the run diverges (naming
+/// step and particle) or is interrupted.
 pub fn run(cfg: &CouetteConfig, progress: &dyn Progress) -> Result<CouetteRun> {
-    cfg.validate()?;
-    let record = crate::scene::run(&scene(cfg), progress)?;
-    if let Some(stop) = &record.stop {
-        // The Couette command reports a divergence as the core's error.
-        return Err(Error::Diverged(stop.reason.clone()));
+    let run = run_with(cfg, progress, None)?;
+    match &run.stop {
+        Some(stop) => Err(Error::Diverged(stop.reason.clone())),
+        None => Ok(run),
     }
+}
+
+/// Runs the case, from its start or from a checkpoint of an earlier
+/// `sph couette` run with the same configuration, and returns what it
+/// computed even when it stopped early ([`CouetteRun::stop`] says why; an
+/// interrupted run carries its [`CouetteRun::checkpoint`]).
+///
+/// # Errors
+/// [`Error::Config`] for an invalid configuration or a checkpoint of another
+/// run; [`Error::Core`] if the core rejects the scene.
+pub fn run_with(
+    cfg: &CouetteConfig,
+    progress: &dyn Progress,
+    resume: Option<&Checkpoint>,
+) -> Result<CouetteRun> {
+    cfg.validate()?;
+    let record = crate::scene::run_with(
+        &scene(cfg),
+        &mut crate::scene::RunControl {
+            progress,
+            resume,
+            checkpoint_every: None,
+            on_checkpoint: &mut |_, _| Ok(()),
+        },
+    )?;
     let profiles = record
         .frames
         .iter()
@@ -375,5 +410,7 @@ pub fn run(cfg: &CouetteConfig, progress: &dyn Progress) -> Result<CouetteRun> {
         storage_bytes: record.storage_bytes,
         profiles,
         snapshots,
+        stop: record.stop,
+        checkpoint: record.checkpoint,
     })
 }

@@ -26,8 +26,8 @@ pub enum Error {
     },
     /// The core refused the scene or the run diverged.
     Core(sph_core::error::Error),
-    /// A command that publishes only complete runs (`sph couette`) stopped
-    /// early: nothing was written and a previous output set is unchanged.
+    /// A run that had to reach its end ([`crate::couette::run`], each run of
+    /// a study) stopped early: diverged or interrupted.
     Diverged(String),
     /// A run stopped early (diverged, or its state degenerated); its
     /// results up to then were written with `complete: false`.
@@ -93,10 +93,7 @@ impl fmt::Display for Error {
             Error::Stopped(reason) => {
                 write!(f, "{reason} (results up to then written, complete: false)")
             }
-            Error::Diverged(reason) => write!(
-                f,
-                "{reason} (nothing written: this command publishes complete runs only)"
-            ),
+            Error::Diverged(reason) => write!(f, "{reason}"),
         }
     }
 }

@@ -179,6 +179,9 @@ struct LimitsEntry {
 #[allow(non_snake_case)]
 struct Summary<'a> {
     case: &'static str,
+    complete: bool,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    reason: Option<&'a str>,
     y_lower: f64,
     y_upper: f64,
     U: f64,
@@ -225,6 +228,8 @@ pub fn summary_json(run: &CouetteRun) -> Result<String> {
     let (linf, l2) = run.headline();
     let summary = Summary {
         case: "couette",
+        complete: run.stop.is_none(),
+        reason: run.stop.as_ref().map(|s| s.reason.as_str()),
         y_lower: g.y_lower,
         y_upper: g.y_upper,
         U: c.u_wall,
@@ -479,6 +484,9 @@ pub fn write_couette(run: &CouetteRun, dir: &Path) -> Result<Vec<PathBuf>> {
             entries.push((snap.t, name));
         }
         put("particles.pvd", pvd(&entries).as_bytes())?;
+    }
+    if let Some(ck) = &run.checkpoint {
+        put(crate::checkpoint::FILE, &ck.to_bytes())?;
     }
     Ok(written)
 }

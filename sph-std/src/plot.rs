@@ -3,6 +3,7 @@
 
 use std::sync::Once;
 
+use plotters::coord::CoordTranslate;
 use plotters::prelude::*;
 use plotters::style::{register_font, FontStyle};
 
@@ -47,8 +48,8 @@ fn drawable(lo: f64, hi: f64, axis: &str) -> Result<()> {
     }
 }
 
-/// Colours for successive series (the last, black, is for references).
-pub const PALETTE: [RGBColor; 9] = [
+/// Colours for successive series (Tableau 10 without its greys).
+pub const PALETTE: [RGBColor; 8] = [
     RGBColor(31, 119, 180),
     RGBColor(255, 127, 14),
     RGBColor(44, 160, 44),
@@ -56,12 +57,152 @@ pub const PALETTE: [RGBColor; 9] = [
     RGBColor(148, 103, 189),
     RGBColor(140, 86, 75),
     RGBColor(227, 119, 194),
-    RGBColor(127, 127, 127),
-    RGBColor(0, 0, 0),
+    RGBColor(23, 190, 207),
 ];
 
-/// Index of black in [`PALETTE`], for reference lines.
-pub const REFERENCE: usize = 8;
+/// Style index of reference lines (exact solutions, slopes): black, drawn
+/// apart from the series' styles.
+pub const REFERENCE: usize = usize::MAX;
+
+/// Marker shapes: after the eight colours the shapes change, so no two of
+/// the first 32 series of a figure look alike.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Shape {
+    /// Filled circle.
+    Circle,
+    /// Filled triangle.
+    Triangle,
+    /// Filled square.
+    Square,
+    /// Cross.
+    Cross,
+}
+
+const SHAPES: [Shape; 4] = [Shape::Circle, Shape::Triangle, Shape::Square, Shape::Cross];
+
+/// Colour and marker of the series with style index `k`.
+pub fn style(k: usize) -> (RGBColor, Shape) {
+    if k == REFERENCE {
+        return (RGBColor(0, 0, 0), Shape::Circle);
+    }
+    (
+        PALETTE[k % PALETTE.len()],
+        SHAPES[(k / PALETTE.len()) % SHAPES.len()],
+    )
+}
+
+/// Draws markers of `shape` at `points` on a chart.
+fn draw_markers<DB: DrawingBackend, CT: CoordTranslate<From = (f64, f64)>>(
+    chart: &mut ChartContext<'_, DB, CT>,
+    points: &[(f64, f64)],
+    shape: Shape,
+    color: RGBColor,
+    size: i32,
+) -> Result<()> {
+    let fill = color.filled();
+    let at = points.iter().copied();
+    match shape {
+        Shape::Circle => chart
+            .draw_series(at.map(|p| Circle::new(p, size, fill)))
+            .map(|_| ()),
+        Shape::Triangle => chart
+            .draw_series(at.map(|p| TriangleMarker::new(p, size + 1, fill)))
+            .map(|_| ()),
+        Shape::Square => chart
+            .draw_series(at.map(|p| {
+                EmptyElement::at(p) + Rectangle::new([(-size, -size), (size, size)], fill)
+            }))
+            .map(|_| ()),
+        Shape::Cross => chart
+            .draw_series(at.map(|p| Cross::new(p, size, color.stroke_width(2))))
+            .map(|_| ()),
+    }
+    .map_err(plot_error)
+}
+
+/// Draws one marker of `shape` at a pixel position of `area`.
+fn draw_marker_at<DB: DrawingBackend>(
+    area: &DrawingArea<DB, plotters::coord::Shift>,
+    at: (i32, i32),
+    shape: Shape,
+    color: RGBColor,
+    size: i32,
+) -> Result<()> {
+    let fill = color.filled();
+    match shape {
+        Shape::Circle => area.draw(&Circle::new(at, size, fill)),
+        Shape::Triangle => area.draw(&TriangleMarker::new(at, size + 1, fill)),
+        Shape::Square => area.draw(&Rectangle::new(
+            [(at.0 - size, at.1 - size), (at.0 + size, at.1 + size)],
+            fill,
+        )),
+        Shape::Cross => area.draw(&Cross::new(at, size, color.stroke_width(2))),
+    }
+    .map_err(plot_error)
+}
+
+/// A tick label that stays short on any scale: plain decimals from 1e-3
+/// to 1e5 (at most four significant digits), `2.5e-7` style outside.
+pub fn tick_label(v: f64) -> String {
+    let a = v.abs();
+    if a == 0.0 || !a.is_finite() {
+        return format!("{v}");
+    }
+    if (1e-3..1e5).contains(&a) {
+        let decimals = (3 - a.log10().floor() as i32).max(0) as usize;
+        let text = format!("{v:.decimals$}");
+        if text.contains('.') {
+            text.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            text
+        }
+    } else {
+        let text = format!("{v:.3e}");
+        let (mantissa, exponent) = text.split_once('e').unwrap_or((&text, "0"));
+        let mantissa = mantissa.trim_end_matches('0').trim_end_matches('.');
+        format!("{mantissa}e{exponent}")
+    }
+}
+
+/// One entry of a legend drawn beside a chart.
+struct LegendEntry {
+    label: String,
+    style: usize,
+    line: bool,
+    markers: bool,
+}
+
+/// Draws a legend into its own column (so it never covers data).
+fn draw_legend<DB: DrawingBackend>(
+    area: &DrawingArea<DB, plotters::coord::Shift>,
+    top: i32,
+    entries: &[LegendEntry],
+) -> Result<()> {
+    for (row, e) in entries.iter().enumerate() {
+        let y = top + 24 * row as i32;
+        let (color, shape) = style(e.style);
+        if e.line {
+            area.draw(&PathElement::new(
+                vec![(6, y), (36, y)],
+                color.stroke_width(2),
+            ))
+            .map_err(plot_error)?;
+        }
+        if e.markers {
+            draw_marker_at(area, (21, y), shape, color, 4)?;
+        }
+        area.draw(&Text::new(
+            e.label.clone(),
+            (44, y - 8),
+            ("sans-serif", 15).into_font(),
+        ))
+        .map_err(plot_error)?;
+    }
+    Ok(())
+}
+
+/// Width of the legend column beside every chart.
+const LEGEND_WIDTH: u32 = 290;
 
 /// Encodes an RGB buffer as PNG.
 ///
@@ -77,14 +218,15 @@ pub fn encode_png(buffer: &[u8], width: u32, height: u32) -> Result<Vec<u8>> {
 
 use image::ImageEncoder;
 
-/// `profiles.png`: SPH velocity profiles (points) against the exact series
-/// (lines) at every output time.
+/// `profiles.png`: SPH velocity profiles (markers) against the exact
+/// series (lines) at every output time, and under them the residual
+/// `(u_SPH - u_exact) / U` of every particle row.
 ///
 /// # Errors
 /// If drawing fails.
 pub fn profiles_png(run: &CouetteRun) -> Result<Vec<u8>> {
     ensure_font();
-    let (w, h) = (1000u32, 700u32);
+    let (w, h) = (1100u32, 1000u32);
     let mut buffer = vec![255u8; (w * h * 3) as usize];
     {
         let root = BitMapBackend::with_buffer(&mut buffer, (w, h)).into_drawing_area();
@@ -95,26 +237,62 @@ pub fn profiles_png(run: &CouetteRun) -> Result<Vec<u8>> {
         let (y0, y1) = (g.y_lower * 1e3, g.y_upper * 1e3);
         drawable(y0, y1, "y")?;
         let c = &run.config;
+        let stopped = if run.stop.is_some() {
+            " (stopped early)"
+        } else {
+            ""
+        };
         let caption = format!(
-            "Couette flow: {} kernel, beta {}, {} across, {} viscosity, {}",
+            "Couette flow: {} kernel, beta {}, {} across, {} viscosity, {}{stopped}",
             c.kernel, c.beta, c.particles_across, c.viscosity, c.precision
         );
-        let mut chart = ChartBuilder::on(&root)
-            .caption(caption, ("sans-serif", 22))
+        let (upper, lower) = root
+            .titled(&caption, ("sans-serif", 22))
+            .map_err(plot_error)?
+            .split_vertically(600);
+        let (top, legend) = upper.split_horizontally(w - LEGEND_WIDTH);
+        let (bottom, _) = lower.split_horizontally(w - LEGEND_WIDTH);
+        // One marker per particle row (the strip repeats each row).
+        let stride = g.nx.max(1);
+        let rows = |p: &crate::couette::Profile| {
+            p.y.iter()
+                .zip(&p.vx)
+                .step_by(stride)
+                .map(|(y, vx)| (*y, *vx))
+                .collect::<Vec<_>>()
+        };
+        let mut chart = ChartBuilder::on(&top)
             .margin(15)
             .x_label_area_size(50)
-            .y_label_area_size(60)
+            .y_label_area_size(70)
             .build_cartesian_2d(-0.02f64..1.02f64, y0..y1)
             .map_err(plot_error)?;
         chart
             .configure_mesh()
             .x_desc("u / U")
             .y_desc("y [mm]")
+            .x_label_formatter(&|v| tick_label(*v))
+            .y_label_formatter(&|v| tick_label(*v))
             .label_style(("sans-serif", 16))
             .draw()
             .map_err(plot_error)?;
+        let mut entries = vec![
+            LegendEntry {
+                label: "lines: exact series".into(),
+                style: REFERENCE,
+                line: true,
+                markers: false,
+            },
+            LegendEntry {
+                label: "markers: SPH".into(),
+                style: REFERENCE,
+                line: false,
+                markers: true,
+            },
+        ];
+        let mut worst = 0.0f64;
         for (k, p) in run.profiles.iter().enumerate() {
-            let color = PALETTE[k % PALETTE.len()];
+            let (color, shape) = style(k);
             let line: Vec<(f64, f64)> = (0..=200)
                 .map(|i| {
                     let y = g.y_lower + (g.y_upper - g.y_lower) * i as f64 / 200.0;
@@ -123,30 +301,58 @@ pub fn profiles_png(run: &CouetteRun) -> Result<Vec<u8>> {
                 .collect();
             chart
                 .draw_series(LineSeries::new(line, color.stroke_width(2)))
-                .map_err(plot_error)?
-                .label(format!("t = {} s", p.t))
-                .legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
-                });
-            // One marker per particle row (the strip repeats each row).
-            let stride = g.nx.max(1);
-            chart
-                .draw_series(
-                    p.y.iter()
-                        .zip(&p.vx)
-                        .step_by(stride)
-                        .map(|(y, vx)| Circle::new((vx / u, y * 1e3), 3, color.filled())),
-                )
                 .map_err(plot_error)?;
+            let points: Vec<(f64, f64)> = rows(p)
+                .into_iter()
+                .map(|(y, vx)| (vx / u, y * 1e3))
+                .collect();
+            draw_markers(&mut chart, &points, shape, color, 3)?;
+            for (y, vx) in rows(p) {
+                worst = worst.max(((vx - exact.velocity(y, p.t)) / u).abs());
+            }
+            entries.push(LegendEntry {
+                label: format!("t = {} s", tick_label(p.t)),
+                style: k,
+                line: true,
+                markers: true,
+            });
         }
+        draw_legend(&legend, 30, &entries)?;
+        // The residual panel.
+        let r = if worst.is_finite() && worst > 0.0 {
+            1.1 * worst
+        } else {
+            1e-3
+        };
+        let mut chart = ChartBuilder::on(&bottom)
+            .margin(15)
+            .x_label_area_size(50)
+            .y_label_area_size(70)
+            .build_cartesian_2d(y0..y1, -r..r)
+            .map_err(plot_error)?;
         chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperLeft)
-            .label_font(("sans-serif", 16))
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
+            .configure_mesh()
+            .x_desc("y [mm]")
+            .y_desc("(u_SPH - u_exact) / U")
+            .x_label_formatter(&|v| tick_label(*v))
+            .y_label_formatter(&|v| tick_label(*v))
+            .label_style(("sans-serif", 16))
             .draw()
             .map_err(plot_error)?;
+        chart
+            .draw_series(LineSeries::new(
+                vec![(y0, 0.0), (y1, 0.0)],
+                BLACK.stroke_width(1),
+            ))
+            .map_err(plot_error)?;
+        for (k, p) in run.profiles.iter().enumerate() {
+            let (color, shape) = style(k);
+            let points: Vec<(f64, f64)> = rows(p)
+                .into_iter()
+                .map(|(y, vx)| (y * 1e3, (vx - exact.velocity(y, p.t)) / u))
+                .collect();
+            draw_markers(&mut chart, &points, shape, color, 3)?;
+        }
         root.present().map_err(plot_error)?;
     }
     encode_png(&buffer, w, h)
@@ -159,7 +365,7 @@ pub struct Series {
     pub label: String,
     /// Points (x, y); non-positive values are dropped on log axes.
     pub points: Vec<(f64, f64)>,
-    /// Index into [`PALETTE`].
+    /// Style index ([`style`]: colour, then marker shape), or [`REFERENCE`].
     pub color: usize,
     /// Draw as a line (else markers only).
     pub line: bool,
@@ -180,8 +386,6 @@ pub struct Axes {
     pub log_x: bool,
     /// Logarithmic y.
     pub log_y: bool,
-    /// Where the legend goes.
-    pub legend: SeriesLabelPosition,
 }
 
 fn range(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
@@ -215,7 +419,7 @@ fn range(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
 /// If drawing fails.
 pub fn line_plot(axes: &Axes, series: &[Series]) -> Result<Vec<u8>> {
     ensure_font();
-    let (w, h) = (1000u32, 700u32);
+    let (w, h) = (1100u32, 700u32);
     let mut buffer = vec![255u8; (w * h * 3) as usize];
     {
         let root = BitMapBackend::with_buffer(&mut buffer, (w, h)).into_drawing_area();
@@ -238,9 +442,12 @@ pub fn line_plot(axes: &Axes, series: &[Series]) -> Result<Vec<u8>> {
                 .flat_map(|s| s.points.iter().filter(keep).map(|p| p.1)),
             axes.log_y,
         );
-        let mut builder = ChartBuilder::on(&root);
+        let titled = root
+            .titled(&axes.title, ("sans-serif", 22))
+            .map_err(plot_error)?;
+        let (plot, legend) = titled.split_horizontally(w - LEGEND_WIDTH);
+        let mut builder = ChartBuilder::on(&plot);
         builder
-            .caption(&axes.title, ("sans-serif", 22))
             .margin(15)
             .x_label_area_size(50)
             .y_label_area_size(80);
@@ -251,41 +458,24 @@ pub fn line_plot(axes: &Axes, series: &[Series]) -> Result<Vec<u8>> {
                     .configure_mesh()
                     .x_desc(axes.x.as_str())
                     .y_desc(axes.y.as_str())
+                    .x_label_formatter(&|v| tick_label(*v))
+                    .y_label_formatter(&|v| tick_label(*v))
                     .label_style(("sans-serif", 16))
                     .light_line_style(RGBColor(235, 235, 235))
                     .draw()
                     .map_err(plot_error)?;
                 for s in series {
-                    let color = PALETTE[s.color % PALETTE.len()];
+                    let (color, shape) = style(s.color);
                     let pts: Vec<(f64, f64)> = s.points.iter().filter(keep).copied().collect();
                     if s.line {
                         chart
                             .draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))
-                            .map_err(plot_error)?
-                            .label(s.label.clone())
-                            .legend(move |(x, y)| {
-                                PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
-                            });
+                            .map_err(plot_error)?;
                     }
                     if s.markers {
-                        let drawn = chart
-                            .draw_series(pts.iter().map(|p| Circle::new(*p, 4, color.filled())))
-                            .map_err(plot_error)?;
-                        if !s.line {
-                            drawn
-                                .label(s.label.clone())
-                                .legend(move |(x, y)| Circle::new((x + 10, y), 4, color.filled()));
-                        }
+                        draw_markers(&mut chart, &pts, shape, color, 4)?;
                     }
                 }
-                chart
-                    .configure_series_labels()
-                    .position(axes.legend.clone())
-                    .label_font(("sans-serif", 14))
-                    .background_style(WHITE.mix(0.85))
-                    .border_style(BLACK)
-                    .draw()
-                    .map_err(plot_error)?;
             }};
         }
         drawable(x0, x1, "x")?;
@@ -304,6 +494,16 @@ pub fn line_plot(axes: &Axes, series: &[Series]) -> Result<Vec<u8>> {
                 .build_cartesian_2d(x0..x1, y0..y1)
                 .map_err(plot_error)?),
         }
+        let entries: Vec<LegendEntry> = series
+            .iter()
+            .map(|s| LegendEntry {
+                label: s.label.clone(),
+                style: s.color,
+                line: s.line,
+                markers: s.markers,
+            })
+            .collect();
+        draw_legend(&legend, 30, &entries)?;
         root.present().map_err(plot_error)?;
     }
     encode_png(&buffer, w, h)
@@ -361,4 +561,43 @@ pub fn speed_scatter_png(
         root.present().map_err(plot_error)?;
     }
     encode_png(&buffer, w, h)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tick_labels_are_short_on_every_scale() {
+        for (v, text) in [
+            (0.0, "0"),
+            (1.0, "1"),
+            (0.5, "0.5"),
+            (20.0, "20"),
+            (0.001, "0.001"),
+            (0.0025, "0.0025"),
+            (1e-6, "1e-6"),
+            (2.5e-7, "2.5e-7"),
+            (3e5, "3e5"),
+            (-0.02, "-0.02"),
+            (12345.0, "12345"),
+        ] {
+            assert_eq!(tick_label(v), text, "{v}");
+        }
+        // Round-off in a key point never spells out its noise.
+        assert_eq!(tick_label(0.1 + 0.2), "0.3");
+        assert_eq!(tick_label(3.0000000000000004e-6), "3e-6");
+    }
+
+    #[test]
+    fn no_two_of_the_first_32_styles_look_alike() {
+        let styles: Vec<_> = (0..32).map(style).collect();
+        for (i, a) in styles.iter().enumerate() {
+            for b in &styles[i + 1..] {
+                assert_ne!(a, b);
+            }
+            // The reference style (black) is no series' style.
+            assert_ne!(*a, style(REFERENCE));
+        }
+    }
 }

@@ -198,7 +198,6 @@ pub fn diagnostics_png(record: &RunRecord) -> Result<Vec<u8>> {
             y: "value".into(),
             log_x: false,
             log_y: true,
-            legend: plotters::chart::SeriesLabelPosition::LowerLeft,
         },
         &series,
     )

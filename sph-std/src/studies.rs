@@ -453,7 +453,6 @@ mod tests {
 }
 
 use crate::plot::{line_plot, Axes, Series};
-use plotters::chart::SeriesLabelPosition;
 
 /// The convergence plots: Linf against N, the Richardson view (signed error
 /// minus its extrapolated floor), and the signed error against beta.
@@ -552,7 +551,6 @@ pub fn convergence_plots(report: &ConvergenceReport) -> Result<Vec<(&'static str
                     y: "Linf error / U".into(),
                     log_x: true,
                     log_y: true,
-                    legend: SeriesLabelPosition::UpperRight,
                 },
                 &linf,
             )?,
@@ -566,7 +564,6 @@ pub fn convergence_plots(report: &ConvergenceReport) -> Result<Vec<(&'static str
                     y: "|nu_eff/nu - 1 - floor|".into(),
                     log_x: true,
                     log_y: true,
-                    legend: SeriesLabelPosition::LowerLeft,
                 },
                 &diff,
             )?,
@@ -580,7 +577,6 @@ pub fn convergence_plots(report: &ConvergenceReport) -> Result<Vec<(&'static str
                     y: "nu_eff / nu - 1".into(),
                     log_x: false,
                     log_y: false,
-                    legend: SeriesLabelPosition::LowerRight,
                 },
                 &beta_series,
             )?,
@@ -818,7 +814,6 @@ pub fn pareto_png(rows: &[ParetoRow]) -> Result<Vec<u8>> {
             y: "largest Linf error / U (t* >= 0.02)".into(),
             log_x: true,
             log_y: true,
-            legend: SeriesLabelPosition::UpperRight,
         },
         &series,
     )

@@ -313,7 +313,6 @@ fn figure(_scene: &Scene, record: &RunRecord) -> Result<Vec<u8>> {
             y: "velocity / U".into(),
             log_x: false,
             log_y: false,
-            legend: plotters::chart::SeriesLabelPosition::UpperLeft,
         },
         &series,
     )

@@ -507,7 +507,6 @@ pub(crate) fn channel_figure(scene: &Scene, record: &RunRecord) -> Result<Vec<u8
             y: "u / U".into(),
             log_x: false,
             log_y: false,
-            legend: plotters::chart::SeriesLabelPosition::UpperLeft,
         },
         &series,
     )
