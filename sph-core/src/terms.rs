@@ -318,6 +318,32 @@ fn positive<F: Real>(name: &'static str, value: F) -> Result<()> {
 }
 
 /// Summation density `rho_i = sum_j m_j W_ij` (the sum includes `j = i`).
+///
+/// ```
+/// # use sph_core::prelude::*;
+/// # use sph_core::terms::{Acc, Consts, Dest, Fields, Pair};
+/// # // Two particles 0.1 apart along x; particle 0 moves towards 1.
+/// # let x = [Vector::new([0.0, 0.0]), Vector::new([0.1, 0.0])];
+/// # let v = [Vector::new([1.0, 0.0]), Vector::new([0.0, 0.0])];
+/// # let (m, rho, p) = ([0.01, 0.01], [1.0, 1.02], [2.0, 1.0]);
+/// # let f = Fields::<D2<f64>> { x: &x, v: &v, m: &m, rho: &rho, p: &p };
+/// # let k = Consts { h: 0.13, eta2: 1e-6, c0: 10.0 };
+/// # let dest = |i: usize| Dest { i, v: v[i], m: m[i], rho: rho[i], p: p[i] };
+/// # // Kernel value and F = (1/r) dW/dr (negative) of the pair, by hand.
+/// # let (w, fr) = (5.0, -300.0);
+/// # let pair = |i: usize, j: usize| {
+/// #     let r_ij = x[i] - x[j];
+/// #     Pair { j, r_ij, r2: r_ij.norm2(), w, f: fr, grad: r_ij * fr, v_ij: v[i] - v[j] }
+/// # };
+/// # let one = |t: &dyn Fn(&Dest<D2<f64>>, &Pair<D2<f64>>, &mut Acc<D2<f64>>), i: usize, j: usize| {
+/// #     let mut acc = Acc::default();
+/// #     t(&dest(i), &pair(i, j), &mut acc);
+/// #     acc
+/// # };
+/// let t = SummationDensity;
+/// let acc = one(&|d, q, a| Term::<D2<f64>>::pair(&t, &k, d, &f, q, a), 0, 1);
+/// assert_eq!(acc.rho, m[1] * w); // m_j W_ij
+/// ```
 #[derive(Clone, Copy, Debug, Default)]
 pub struct SummationDensity;
 
@@ -331,6 +357,37 @@ impl<S: Space> Term<S> for SummationDensity {
 }
 
 /// Continuity `d rho_i / dt = sum_j m_j v_ij . grad_i W_ij` (Monaghan 1992, the seed's S1).
+///
+/// Two particles approaching each other compress: the rate is positive for
+/// both, and equal for equal masses.
+///
+/// ```
+/// # use sph_core::prelude::*;
+/// # use sph_core::terms::{Acc, Consts, Dest, Fields, Pair};
+/// # // Two particles 0.1 apart along x; particle 0 moves towards 1.
+/// # let x = [Vector::new([0.0, 0.0]), Vector::new([0.1, 0.0])];
+/// # let v = [Vector::new([1.0, 0.0]), Vector::new([0.0, 0.0])];
+/// # let (m, rho, p) = ([0.01, 0.01], [1.0, 1.02], [2.0, 1.0]);
+/// # let f = Fields::<D2<f64>> { x: &x, v: &v, m: &m, rho: &rho, p: &p };
+/// # let k = Consts { h: 0.13, eta2: 1e-6, c0: 10.0 };
+/// # let dest = |i: usize| Dest { i, v: v[i], m: m[i], rho: rho[i], p: p[i] };
+/// # // Kernel value and F = (1/r) dW/dr (negative) of the pair, by hand.
+/// # let (w, fr) = (5.0, -300.0);
+/// # let pair = |i: usize, j: usize| {
+/// #     let r_ij = x[i] - x[j];
+/// #     Pair { j, r_ij, r2: r_ij.norm2(), w, f: fr, grad: r_ij * fr, v_ij: v[i] - v[j] }
+/// # };
+/// # let one = |t: &dyn Fn(&Dest<D2<f64>>, &Pair<D2<f64>>, &mut Acc<D2<f64>>), i: usize, j: usize| {
+/// #     let mut acc = Acc::default();
+/// #     t(&dest(i), &pair(i, j), &mut acc);
+/// #     acc
+/// # };
+/// let t = Continuity;
+/// let a0 = one(&|d, q, a| Term::<D2<f64>>::pair(&t, &k, d, &f, q, a), 0, 1);
+/// let a1 = one(&|d, q, a| Term::<D2<f64>>::pair(&t, &k, d, &f, q, a), 1, 0);
+/// assert!(a0.drho > 0.0);
+/// assert_eq!(a0.drho, a1.drho);
+/// ```
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Continuity;
 
@@ -490,6 +547,37 @@ fn inverse_symmetric<S: Space>(m: &[S::Vector; 3]) -> Option<[S::Vector; 3]> {
 /// Symmetric pressure gradient
 /// `dv_i/dt = -sum_j m_j (P_i/rho_i^2 + P_j/rho_j^2) grad_i W_ij`;
 /// pairwise antisymmetric, so it conserves linear and angular momentum.
+///
+/// ```
+/// # use sph_core::prelude::*;
+/// # use sph_core::terms::{Acc, Consts, Dest, Fields, Pair};
+/// # // Two particles 0.1 apart along x; particle 0 moves towards 1.
+/// # let x = [Vector::new([0.0, 0.0]), Vector::new([0.1, 0.0])];
+/// # let v = [Vector::new([1.0, 0.0]), Vector::new([0.0, 0.0])];
+/// # let (m, rho, p) = ([0.01, 0.01], [1.0, 1.02], [2.0, 1.0]);
+/// # let f = Fields::<D2<f64>> { x: &x, v: &v, m: &m, rho: &rho, p: &p };
+/// # let k = Consts { h: 0.13, eta2: 1e-6, c0: 10.0 };
+/// # let dest = |i: usize| Dest { i, v: v[i], m: m[i], rho: rho[i], p: p[i] };
+/// # // Kernel value and F = (1/r) dW/dr (negative) of the pair, by hand.
+/// # let (w, fr) = (5.0, -300.0);
+/// # let pair = |i: usize, j: usize| {
+/// #     let r_ij = x[i] - x[j];
+/// #     Pair { j, r_ij, r2: r_ij.norm2(), w, f: fr, grad: r_ij * fr, v_ij: v[i] - v[j] }
+/// # };
+/// # let one = |t: &dyn Fn(&Dest<D2<f64>>, &Pair<D2<f64>>, &mut Acc<D2<f64>>), i: usize, j: usize| {
+/// #     let mut acc = Acc::default();
+/// #     t(&dest(i), &pair(i, j), &mut acc);
+/// #     acc
+/// # };
+/// // The pair's forces m_i a_i and m_j a_j cancel (Newton's third law).
+/// let t = PressureGradient;
+/// let a0 = one(&|d, q, a| Term::<D2<f64>>::pair(&t, &k, d, &f, q, a), 0, 1);
+/// let a1 = one(&|d, q, a| Term::<D2<f64>>::pair(&t, &k, d, &f, q, a), 1, 0);
+/// let net = a0.dv * m[0] + a1.dv * m[1];
+/// assert!(net.norm2() < 1e-30);
+/// // Pressure pushes the pair apart: particle 0 (on the left) goes left.
+/// assert!(a0.dv[0] < 0.0);
+/// ```
 #[derive(Clone, Copy, Debug, Default)]
 pub struct PressureGradient;
 
@@ -506,6 +594,20 @@ impl<S: Space> Term<S> for PressureGradient {
 }
 
 /// A uniform body force per unit mass (gravity, or a driving pressure gradient).
+///
+/// ```
+/// use sph_core::prelude::*;
+/// use sph_core::terms::{Acc, Consts, Dest};
+///
+/// let g = BodyForce::<D2<f64>> { g: Vector::new([0.0, -9.81]) };
+/// let k = Consts { h: 0.1, eta2: 0.0, c0: 30.0 };
+/// let d = Dest { i: 0, v: Vector::new([0.0, 0.0]), m: 1.0, rho: 1000.0, p: 0.0 };
+/// let mut acc = Acc::default();
+/// g.init(&k, &d, &mut acc);
+/// assert_eq!(acc.dv, g.g);
+/// let bad = BodyForce::<D2<f64>> { g: Vector::new([f64::NAN, 0.0]) };
+/// assert!(matches!(bad.validate(), Err(Error::InvalidParameter { name: "g", .. })));
+/// ```
 #[derive(Clone, Copy, Debug)]
 pub struct BodyForce<S: Space> {
     /// Acceleration.
@@ -594,6 +696,37 @@ impl<S: Space> Term<S> for MorrisViscosity<S::Real> {
 /// A central force: conserves linear and angular momentum. On a square
 /// lattice it sees a viscosity 5-35 % too small at `h/dx <= 1.3`, and its
 /// stability limit is about half of Morris's.
+///
+/// ```
+/// # use sph_core::prelude::*;
+/// # use sph_core::terms::{Acc, Consts, Dest, Fields, Pair};
+/// # // Two particles 0.1 apart along x; particle 0 moves towards 1.
+/// # let x = [Vector::new([0.0, 0.0]), Vector::new([0.1, 0.0])];
+/// # let v = [Vector::new([1.0, 0.0]), Vector::new([0.0, 0.0])];
+/// # let (m, rho, p) = ([0.01, 0.01], [1.0, 1.02], [2.0, 1.0]);
+/// # let f = Fields::<D2<f64>> { x: &x, v: &v, m: &m, rho: &rho, p: &p };
+/// # let k = Consts { h: 0.13, eta2: 1e-6, c0: 10.0 };
+/// # let dest = |i: usize| Dest { i, v: v[i], m: m[i], rho: rho[i], p: p[i] };
+/// # // Kernel value and F = (1/r) dW/dr (negative) of the pair, by hand.
+/// # let (w, fr) = (5.0, -300.0);
+/// # let pair = |i: usize, j: usize| {
+/// #     let r_ij = x[i] - x[j];
+/// #     Pair { j, r_ij, r2: r_ij.norm2(), w, f: fr, grad: r_ij * fr, v_ij: v[i] - v[j] }
+/// # };
+/// # let one = |t: &dyn Fn(&Dest<D2<f64>>, &Pair<D2<f64>>, &mut Acc<D2<f64>>), i: usize, j: usize| {
+/// #     let mut acc = Acc::default();
+/// #     t(&dest(i), &pair(i, j), &mut acc);
+/// #     acc
+/// # };
+/// // A central force: along r_ij, and equal and opposite for the pair.
+/// let t = PiViscosity { mu: 1e-3 };
+/// let a0 = one(&|d, q, a| Term::<D2<f64>>::pair(&t, &k, d, &f, q, a), 0, 1);
+/// let a1 = one(&|d, q, a| Term::<D2<f64>>::pair(&t, &k, d, &f, q, a), 1, 0);
+/// assert_eq!(a0.dv[1], 0.0);
+/// assert!((a0.dv * m[0] + a1.dv * m[1]).norm2() < 1e-30);
+/// // It slows the approach.
+/// assert!(a0.dv[0] < 0.0);
+/// ```
 #[derive(Clone, Copy, Debug)]
 pub struct PiViscosity<F> {
     /// Dynamic viscosity `mu`.
@@ -633,6 +766,39 @@ impl<S: Space> Term<S> for PiViscosity<S::Real> {
 /// `Pi_ij = (-alpha c0 mu_ij + beta mu_ij^2) / rho_bar`, `mu_ij = h v_ij.r_ij / (r^2 + eta^2)`.
 ///
 /// Equivalent shear viscosity `nu = alpha h c0 / (2 (d + 2))`.
+///
+/// ```
+/// # use sph_core::prelude::*;
+/// # use sph_core::terms::{Acc, Consts, Dest, Fields, Pair};
+/// # // Two particles 0.1 apart along x; particle 0 moves towards 1.
+/// # let x = [Vector::new([0.0, 0.0]), Vector::new([0.1, 0.0])];
+/// # let v = [Vector::new([1.0, 0.0]), Vector::new([0.0, 0.0])];
+/// # let (m, rho, p) = ([0.01, 0.01], [1.0, 1.02], [2.0, 1.0]);
+/// # let f = Fields::<D2<f64>> { x: &x, v: &v, m: &m, rho: &rho, p: &p };
+/// # let k = Consts { h: 0.13, eta2: 1e-6, c0: 10.0 };
+/// # let dest = |i: usize| Dest { i, v: v[i], m: m[i], rho: rho[i], p: p[i] };
+/// # // Kernel value and F = (1/r) dW/dr (negative) of the pair, by hand.
+/// # let (w, fr) = (5.0, -300.0);
+/// # let pair = |i: usize, j: usize| {
+/// #     let r_ij = x[i] - x[j];
+/// #     Pair { j, r_ij, r2: r_ij.norm2(), w, f: fr, grad: r_ij * fr, v_ij: v[i] - v[j] }
+/// # };
+/// # let one = |t: &dyn Fn(&Dest<D2<f64>>, &Pair<D2<f64>>, &mut Acc<D2<f64>>), i: usize, j: usize| {
+/// #     let mut acc = Acc::default();
+/// #     t(&dest(i), &pair(i, j), &mut acc);
+/// #     acc
+/// # };
+/// let t = ArtificialViscosity { alpha: 0.1, beta: 0.0 };
+/// // Approaching pair: braked.
+/// let a0 = one(&|d, q, a| Term::<D2<f64>>::pair(&t, &k, d, &f, q, a), 0, 1);
+/// assert!(a0.dv[0] < 0.0);
+/// // The same pair receding feels nothing.
+/// let mut q = pair(0, 1);
+/// q.v_ij = q.v_ij * -1.0;
+/// let mut acc = Acc::default();
+/// Term::<D2<f64>>::pair(&t, &k, &dest(0), &f, &q, &mut acc);
+/// assert_eq!(acc.dv, Vector::new([0.0, 0.0]));
+/// ```
 #[derive(Clone, Copy, Debug)]
 pub struct ArtificialViscosity<F> {
     /// Linear coefficient (0.01-0.1 for validation runs, up to 1 for shocks).
@@ -725,6 +891,18 @@ const fn fit_len(dim: usize) -> usize {
 /// Not conservative: momentum is not exchanged pairwise. The viscous
 /// time-step estimate uses the Morris operator (the same on a lattice). A
 /// particle with too few neighbours for the fit falls back to Morris.
+///
+/// It needs a neighbourhood for its fit and its own scratch, so it is used
+/// through a solver; alone it validates its coefficients:
+///
+/// ```
+/// use sph_core::prelude::*;
+///
+/// let t = CorrectedMorrisViscosity { mu: 1e-3, rho0: 1000.0 };
+/// assert!(Term::<D2<f64>>::validate(&t).is_ok());
+/// let bad = CorrectedMorrisViscosity { mu: 1e-3, rho0: 0.0 };
+/// assert!(Term::<D2<f64>>::validate(&bad).is_err());
+/// ```
 #[derive(Clone, Copy, Debug)]
 pub struct CorrectedMorrisViscosity<F> {
     /// Dynamic viscosity `mu`.
@@ -952,6 +1130,34 @@ impl<S: Space> Term<S> for AnyViscosity<S::Real> {
 ///
 /// Shifting is part of the force group; the solver needs a `shift` buffer
 /// (see [`crate::solver::Storage::shift`]).
+///
+/// ```
+/// # use sph_core::prelude::*;
+/// # use sph_core::terms::{Acc, Consts, Dest, Fields, Pair};
+/// # // Two particles 0.1 apart along x; particle 0 moves towards 1.
+/// # let x = [Vector::new([0.0, 0.0]), Vector::new([0.1, 0.0])];
+/// # let v = [Vector::new([1.0, 0.0]), Vector::new([0.0, 0.0])];
+/// # let (m, rho, p) = ([0.01, 0.01], [1.0, 1.02], [2.0, 1.0]);
+/// # let f = Fields::<D2<f64>> { x: &x, v: &v, m: &m, rho: &rho, p: &p };
+/// # let k = Consts { h: 0.13, eta2: 1e-6, c0: 10.0 };
+/// # let dest = |i: usize| Dest { i, v: v[i], m: m[i], rho: rho[i], p: p[i] };
+/// # // Kernel value and F = (1/r) dW/dr (negative) of the pair, by hand.
+/// # let (w, fr) = (5.0, -300.0);
+/// # let pair = |i: usize, j: usize| {
+/// #     let r_ij = x[i] - x[j];
+/// #     Pair { j, r_ij, r2: r_ij.norm2(), w, f: fr, grad: r_ij * fr, v_ij: v[i] - v[j] }
+/// # };
+/// # let one = |t: &dyn Fn(&Dest<D2<f64>>, &Pair<D2<f64>>, &mut Acc<D2<f64>>), i: usize, j: usize| {
+/// #     let mut acc = Acc::default();
+/// #     t(&dest(i), &pair(i, j), &mut acc);
+/// #     acc
+/// # };
+/// // A crowded neighbour to the right pushes particle 0 to the left.
+/// let t = Shifting::new(0.5, 1.0, k.h, 4.0);
+/// let a0 = one(&|d, q, a| Term::<D2<f64>>::pair(&t, &k, d, &f, q, a), 0, 1);
+/// assert!(a0.shift[0] < 0.0 && a0.shift[1] == 0.0);
+/// assert!(Term::<D2<f64>>::validate(&Shifting::new(-1.0, 1.0, k.h, 4.0)).is_err());
+/// ```
 #[derive(Clone, Copy, Debug)]
 pub struct Shifting<F> {
     /// `C U h`: the coefficient times the velocity scale and `h`.
@@ -1040,6 +1246,37 @@ impl<S: Space> Term<S> for Shifting<S::Real> {
 /// density accumulates) and vanishes for uniform density; `delta = 0.1` is
 /// the usual value. Without a hydrostatic correction it also diffuses a
 /// hydrostatic density gradient, so it is for flows without gravity.
+///
+/// ```
+/// # use sph_core::prelude::*;
+/// # use sph_core::terms::{Acc, Consts, Dest, Fields, Pair};
+/// # // Two particles 0.1 apart along x; particle 0 moves towards 1.
+/// # let x = [Vector::new([0.0, 0.0]), Vector::new([0.1, 0.0])];
+/// # let v = [Vector::new([1.0, 0.0]), Vector::new([0.0, 0.0])];
+/// # let (m, rho, p) = ([0.01, 0.01], [1.0, 1.02], [2.0, 1.0]);
+/// # let f = Fields::<D2<f64>> { x: &x, v: &v, m: &m, rho: &rho, p: &p };
+/// # let k = Consts { h: 0.13, eta2: 1e-6, c0: 10.0 };
+/// # let dest = |i: usize| Dest { i, v: v[i], m: m[i], rho: rho[i], p: p[i] };
+/// # // Kernel value and F = (1/r) dW/dr (negative) of the pair, by hand.
+/// # let (w, fr) = (5.0, -300.0);
+/// # let pair = |i: usize, j: usize| {
+/// #     let r_ij = x[i] - x[j];
+/// #     Pair { j, r_ij, r2: r_ij.norm2(), w, f: fr, grad: r_ij * fr, v_ij: v[i] - v[j] }
+/// # };
+/// # let one = |t: &dyn Fn(&Dest<D2<f64>>, &Pair<D2<f64>>, &mut Acc<D2<f64>>), i: usize, j: usize| {
+/// #     let mut acc = Acc::default();
+/// #     t(&dest(i), &pair(i, j), &mut acc);
+/// #     acc
+/// # };
+/// // Density flows from the denser particle 1 to particle 0, and the
+/// // volume-weighted rates cancel: mass density is only moved.
+/// let t = DensityDiffusion { delta: 0.1 };
+/// let a0 = one(&|d, q, a| Term::<D2<f64>>::pair(&t, &k, d, &f, q, a), 0, 1);
+/// let a1 = one(&|d, q, a| Term::<D2<f64>>::pair(&t, &k, d, &f, q, a), 1, 0);
+/// assert!(a0.drho > 0.0 && a1.drho < 0.0);
+/// let moved = a0.drho * m[0] / rho[0] + a1.drho * m[1] / rho[1];
+/// assert!(moved.abs() < 1e-12 * a0.drho.abs());
+/// ```
 #[derive(Clone, Copy, Debug)]
 pub struct DensityDiffusion<F> {
     /// The coefficient `delta`.
