@@ -251,6 +251,7 @@ fn scene_files_name_a_case_and_reject_unknown_keys() {
         "couette-scene",
         "poiseuille",
         "taylor-green",
+        "taylor-couette",
         "lid-driven-cavity",
     ] {
         let path = format!("{}/examples/{name}.toml", env!("CARGO_MANIFEST_DIR"));

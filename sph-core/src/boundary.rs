@@ -19,6 +19,7 @@
 use crate::domain::{Domain, Reflection, Side, WallKind};
 use crate::error::{Error, Result};
 use crate::real::Real;
+use crate::shape::{narrow, widen, BODY_FLAG};
 use crate::space::{Space, VectorOps};
 
 /// One ghost: its fluid source and which mirrors produced it.
@@ -39,6 +40,12 @@ pub struct Ghost {
 /// one period outside the box along those axes).
 #[inline]
 pub fn mirror_position<S: Space>(domain: &Domain<S>, mut x: S::Vector, mirrors: u8) -> S::Vector {
+    if mirrors & BODY_FLAG != 0 {
+        return match domain.shaped_wall(usize::from(mirrors & !BODY_FLAG)) {
+            Some(w) => narrow::<S>(w.shape.image(widen::<S>(x), S::DIM).position),
+            None => x,
+        };
+    }
     let extent = domain.extent();
     for a in 0..S::DIM {
         for (bit, side) in [(2 * a, Side::Lower), (2 * a + 1, Side::Upper)] {
@@ -124,6 +131,10 @@ pub fn mirror_velocity<S: Space>(
     mirrors: u8,
     homogeneous: bool,
 ) -> S::Vector {
+    if mirrors & BODY_FLAG != 0 {
+        // Shaped walls need the source's position: see [`shaped_ghost`].
+        return v;
+    }
     for a in 0..S::DIM {
         for (bit, side) in [(2 * a, Side::Lower), (2 * a + 1, Side::Upper)] {
             if mirrors & (1 << bit) == 0 {
@@ -146,12 +157,35 @@ pub fn mirror_velocity<S: Space>(
     v
 }
 
+/// Velocity and mass factor of a shaped wall's ghost (`mirrors` with
+/// [`BODY_FLAG`]) for a source at `x` with velocity `v`; `None` for other
+/// ghosts.
+#[inline]
+pub fn shaped_ghost<S: Space>(
+    domain: &Domain<S>,
+    x: S::Vector,
+    v: S::Vector,
+    mirrors: u8,
+    homogeneous: bool,
+) -> Option<(S::Vector, S::Real)> {
+    if mirrors & BODY_FLAG == 0 {
+        return None;
+    }
+    let w = domain.shaped_wall(usize::from(mirrors & !BODY_FLAG))?;
+    let img = w.shape.image(widen::<S>(x), S::DIM);
+    let vg = w.ghost_velocity(widen::<S>(v), &img, homogeneous);
+    Some((narrow::<S>(vg), S::Real::from_f64(img.jacobian)))
+}
+
 /// The curvature part of the ghost velocity for a source at `x` across the
 /// walls in `mirrors`: `curvature d^2` per wall, `d` the source's distance
 /// from it (see [`crate::domain::Wall::curvature`]).
 #[inline]
 pub fn curvature_correction<S: Space>(domain: &Domain<S>, x: S::Vector, mirrors: u8) -> S::Vector {
     let mut dv = S::Vector::zero();
+    if mirrors & BODY_FLAG != 0 {
+        return dv;
+    }
     let extent = domain.extent();
     for a in 0..S::DIM {
         for (bit, side) in [(2 * a, Side::Lower), (2 * a + 1, Side::Upper)] {
@@ -207,6 +241,33 @@ pub fn generate<S: Space>(
             if domain.wall(a, Side::Upper).is_some() && extent[a] - xi[a] < radius {
                 options[a][n_opt[a]] = 1 << (2 * a + 1);
                 n_opt[a] += 1;
+            }
+        }
+        if domain.shaped_count() > 0 {
+            let p = widen::<S>(xi);
+            let r = radius.to_f64();
+            for b in 0..domain.shaped_count() {
+                let Some(w) = domain.shaped_wall(b) else {
+                    continue;
+                };
+                let img = w.shape.image(p, S::DIM);
+                if !(img.distance >= 0.0) {
+                    return Err(Error::BehindWall {
+                        particle: i,
+                        wall: b,
+                        distance: img.distance,
+                    });
+                }
+                if img.distance < r {
+                    if count < available {
+                        tail[count] = into_box(domain, narrow::<S>(img.position));
+                        ghosts[count] = Ghost {
+                            source: i as u32,
+                            mirrors: BODY_FLAG | b as u8,
+                        };
+                    }
+                    count += 1;
+                }
             }
         }
         if n_opt == [1, 1, 1] {

@@ -12,6 +12,7 @@
 use crate::error::{Error, Result};
 use crate::math::Math;
 use crate::real::Real;
+use crate::shape::{widen, ShapedWall, MAX_SHAPED_WALLS};
 use crate::space::{Space, VectorOps};
 
 /// How many periods from the box a coordinate along a periodic axis may
@@ -156,6 +157,9 @@ pub struct Domain<S: Space> {
     walls: [[Option<Wall<S>>; 2]; 3],
     /// Anchor of each point-reflecting wall: `V_w t` wrapped into the box.
     anchors: [[S::Vector; 2]; 3],
+    /// Walls of any shape ([`crate::shape`]), the first `n_shaped` used.
+    shaped: [Option<ShapedWall>; MAX_SHAPED_WALLS],
+    n_shaped: usize,
 }
 
 fn axis_error(axis: usize) -> Error {
@@ -197,6 +201,8 @@ impl<S: Space> Domain<S> {
             periodic: [false; 3],
             walls: [[None; 2]; 3],
             anchors: [[S::Vector::zero(); 2]; 3],
+            shaped: [None; MAX_SHAPED_WALLS],
+            n_shaped: 0,
         })
     }
 
@@ -265,6 +271,57 @@ impl<S: Space> Domain<S> {
         }
         self.walls[axis][side.index()] = Some(wall);
         Ok(self)
+    }
+
+    /// Adds a wall of any shape (in local coordinates: relative to the
+    /// box's lower corner; see [`crate::shape`]).
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] for an invalid description
+    /// ([`ShapedWall::validate`]); [`Error::CapacityExceeded`] beyond
+    /// [`MAX_SHAPED_WALLS`].
+    pub fn with_shaped_wall(mut self, wall: ShapedWall) -> Result<Self> {
+        wall.validate(S::DIM)?;
+        if self.n_shaped >= MAX_SHAPED_WALLS {
+            return Err(Error::CapacityExceeded {
+                buffer: "shaped walls",
+                needed: self.n_shaped + 1,
+                available: MAX_SHAPED_WALLS,
+            });
+        }
+        self.shaped[self.n_shaped] = Some(wall);
+        self.n_shaped += 1;
+        Ok(self)
+    }
+
+    /// Number of shaped walls.
+    #[inline]
+    pub fn shaped_count(&self) -> usize {
+        self.n_shaped
+    }
+
+    /// The shaped wall with index `i`, if there is one.
+    #[inline]
+    pub fn shaped_wall(&self, i: usize) -> Option<&ShapedWall> {
+        self.shaped.get(i).and_then(Option::as_ref)
+    }
+
+    /// The first shaped wall that `x` lies behind (negative signed
+    /// distance), with that distance.
+    pub fn behind_wall(&self, x: S::Vector) -> Option<(usize, f64)> {
+        if self.n_shaped == 0 {
+            return None;
+        }
+        let p = widen::<S>(x);
+        for (i, w) in self.shaped[..self.n_shaped].iter().enumerate() {
+            if let Some(w) = w {
+                let (d, _) = w.shape.distance(p, S::DIM);
+                if !(d >= 0.0) {
+                    return Some((i, d));
+                }
+            }
+        }
+        None
     }
 
     /// Checks what can only be checked once the box is complete: a wall with

@@ -30,6 +30,13 @@ pub enum Fault {
         /// The density.
         value: f64,
     },
+    /// A particle went behind a shaped wall ([`crate::shape`]).
+    BehindWall {
+        /// Index of the wall.
+        wall: usize,
+        /// Its signed distance (negative: behind the wall).
+        distance: f64,
+    },
     /// A particle crossed a wall or left a non-periodic side of the domain.
     LeftDomain {
         /// Axis (0 = x, 1 = y, 2 = z).
@@ -86,6 +93,15 @@ pub enum Error {
         /// Its coordinate along that axis, relative to the domain's lower corner.
         coordinate: f64,
     },
+    /// A particle given to the solver lies behind a shaped wall.
+    BehindWall {
+        /// Index of the particle.
+        particle: usize,
+        /// Index of the wall.
+        wall: usize,
+        /// Its signed distance (negative).
+        distance: f64,
+    },
     /// A time step went wrong: the run is diverging or a particle escaped.
     Unstable {
         /// Index of the step that failed (the first step is 1).
@@ -105,6 +121,9 @@ impl fmt::Display for Fault {
                 write!(f, "speed {speed:e} exceeds the limit {limit:e}")
             }
             Fault::NonPositiveDensity { value } => write!(f, "density {value:e} is not positive"),
+            Fault::BehindWall { wall, distance } => {
+                write!(f, "went behind shaped wall {wall} (distance {distance:e})")
+            }
             Fault::LeftDomain { axis, coordinate } => {
                 write!(
                     f,
@@ -139,6 +158,10 @@ impl fmt::Display for Error {
             Error::Unstable { step, particle, fault } => {
                 write!(f, "unstable at step {step}: particle {particle}: {fault}")
             }
+            Error::BehindWall { particle, wall, distance } => write!(
+                f,
+                "particle {particle} lies behind shaped wall {wall} (signed distance {distance:e}; the fluid is where it is positive)"
+            ),
         }
     }
 }

@@ -23,6 +23,7 @@ pub mod kernel;
 pub mod math;
 pub mod neighbour;
 pub mod real;
+pub mod shape;
 pub mod solver;
 pub mod space;
 pub mod store;
@@ -39,6 +40,7 @@ pub mod prelude {
     pub use crate::math::Micromath;
     pub use crate::math::{Libm, Math};
     pub use crate::real::Real;
+    pub use crate::shape::{Shape, ShapedWall};
     pub use crate::solver::{Limits, Params, Solver, Storage};
     pub use crate::space::{Space, Vector, VectorOps, D1, D2, D3};
     pub use crate::store::Store;

@@ -829,7 +829,13 @@ where
         };
         let mirror_bits = (1u16 << (2 * S::DIM)) - 1;
         for g in &self.a.ghosts[..state.n_ghost] {
-            if g.source as usize >= n || u16::from(g.mirrors) & !mirror_bits != 0 {
+            let shaped = g.mirrors & crate::shape::BODY_FLAG != 0;
+            let known = if shaped {
+                usize::from(g.mirrors & !crate::shape::BODY_FLAG) < self.domain.shaped_count()
+            } else {
+                u16::from(g.mirrors) & !mirror_bits == 0
+            };
+            if g.source as usize >= n || !known {
                 return Err(bad("ghosts", f64::from(g.source)));
             }
         }
@@ -990,6 +996,13 @@ where
                     particle: i,
                     axis,
                     coordinate: c.to_f64(),
+                });
+            }
+            if let Some((wall, distance)) = domain.behind_wall(storage.x[i]) {
+                return Err(Error::BehindWall {
+                    particle: i,
+                    wall,
+                    distance,
                 });
             }
             if wrap {
@@ -1187,6 +1200,17 @@ where
         let curved = !homogeneous && self.curved_walls;
         for (k, g) in self.a.ghosts[..self.n_ghost].iter().enumerate() {
             let s = g.source as usize;
+            if let Some((vg, jacobian)) = boundary::shaped_ghost(
+                &self.domain,
+                self.a.x[s],
+                fluid_v[s],
+                g.mirrors,
+                homogeneous,
+            ) {
+                ghost_v[k] = vg;
+                ghost_m[k] = fluid_m[s] * jacobian;
+                continue;
+            }
             ghost_v[k] =
                 boundary::mirror_velocity(&self.domain, fluid_v[s], g.mirrors, homogeneous);
             if curved {
@@ -1652,6 +1676,9 @@ where
                                     coordinate: c.to_f64(),
                                 },
                             ));
+                        }
+                        if let Some((wall, distance)) = domain.behind_wall(xn) {
+                            return Err(unstable(step, i, Fault::BehindWall { wall, distance }));
                         }
                         x[k] = xn;
                         if !summation {

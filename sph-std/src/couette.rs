@@ -271,6 +271,9 @@ pub fn scene(cfg: &CouetteConfig) -> Scene {
             AxisSpec::Periodic,
         ],
         dx: geo.dx,
+        shaped_walls: Vec::new(),
+        initial: None,
+        summary: Vec::new(),
         regions: vec![Region {
             lo: [cfg.shift, geo.y_lower, 0.0],
             hi: [cfg.shift + strip, geo.y_upper, 0.0],

@@ -98,6 +98,11 @@ pub fn summary_json(
     };
     let mut value = serde_json::to_value(&summary)
         .map_err(|e| Error::config("summary", "json", e.to_string()))?;
+    if let Some(map) = value.as_object_mut() {
+        for (key, extra) in &record.summary {
+            map.insert(key.clone(), extra.clone());
+        }
+    }
     // JSON has no infinity: a spacing with no pair in reach is written as null.
     if let Some(outputs) = value.get_mut("outputs").and_then(|o| o.as_array_mut()) {
         for (o, d) in outputs.iter_mut().zip(&record.outputs) {

@@ -25,7 +25,7 @@ use sph_core::math::{Libm, Math, Micromath};
 use sph_core::prelude::{
     AnyContinuity, AnyViscosity, ArtificialViscosity, BodyForce, CorrectedMorrisViscosity,
     DensityDiffusion, Domain, Eos, MorrisViscosity, Params, PiViscosity, PressureGradient,
-    Reflection, Shifting, Side, Solver, SummationDensity, Term, Wall, D2, D3,
+    Reflection, ShapedWall, Shifting, Side, Solver, SummationDensity, Term, Wall, D2, D3,
 };
 use sph_core::real::Real;
 use sph_core::space::{Space, VectorOps};
@@ -223,6 +223,14 @@ pub struct Scene {
     pub dx: f64,
     /// Fluid regions.
     pub regions: Vec<Region>,
+    /// Walls of any shape, in global coordinates (`sph_core::shape`). The
+    /// lattice keeps only points at least `dx / 2` inside the fluid of
+    /// every one of them.
+    pub shaped_walls: Vec<ShapedWall>,
+    /// Initial positions (global) instead of the lattice of `regions`: an
+    /// arrangement that conforms to curved walls (rings in an annulus),
+    /// since mirrored ghosts continue the arrangement they are given.
+    pub initial: Option<Vec<[f64; 3]>>,
     /// Initial velocity `v(x, 0)` (rest if `None`).
     pub velocity: Option<VectorField>,
     /// Initial pressure (reference state if `None`; with summation density
@@ -259,6 +267,8 @@ pub struct Scene {
     pub keep_particles: bool,
     /// Run even when the run needs more than [`MAX_STEPS`] steps.
     pub allow_long_run: bool,
+    /// Keys the case adds to `summary.json` (its geometry, say).
+    pub summary: Vec<(String, serde_json::Value)>,
 }
 
 /// The most time steps a run may take unless the scene allows a long run
@@ -366,6 +376,8 @@ pub struct RunRecord {
     pub steady: bool,
     /// The state where a stop request (SIGINT) halted the run, to resume it.
     pub checkpoint: Option<Box<Checkpoint>>,
+    /// The scene's own `summary.json` keys ([`Scene::summary`]).
+    pub summary: Vec<(String, serde_json::Value)>,
 }
 
 impl RunRecord {
@@ -500,6 +512,9 @@ fn check_scene(scene: &Scene) -> Result<()> {
 
 /// Lattice points of the scene's regions (global positions).
 pub fn lattice(scene: &Scene) -> Vec<[f64; 3]> {
+    if let Some(points) = &scene.initial {
+        return points.clone();
+    }
     let d = scene.dim;
     let dx = scene.dx;
     let mut counts = [1usize; 3];
@@ -518,7 +533,11 @@ pub fn lattice(scene: &Scene) -> Vec<[f64; 3]> {
                 let inside = scene
                     .regions
                     .iter()
-                    .any(|r| (0..d).all(|a| p[a] >= r.lo[a] && p[a] < r.hi[a]));
+                    .any(|r| (0..d).all(|a| p[a] >= r.lo[a] && p[a] < r.hi[a]))
+                    && scene
+                        .shaped_walls
+                        .iter()
+                        .all(|w| w.shape.distance(p, d).0 >= 0.5 * dx);
                 if inside {
                     points.push(p);
                 }
@@ -753,6 +772,10 @@ impl<E: Executor> Context<'_, '_, E> {
                 }
             }
         }
+        let to_local = [-s.origin[0], -s.origin[1], -s.origin[2]];
+        for w in &s.shaped_walls {
+            domain = domain.with_shaped_wall(w.translated(to_local))?;
+        }
         Ok(domain)
     }
 
@@ -801,7 +824,8 @@ impl<E: Executor> Context<'_, '_, E> {
                 ghosts += walls * (face * slab) as usize;
             }
         }
-        let capacity = n + 2 * ghosts;
+        // A shaped wall mirrors at most every fluid particle once.
+        let capacity = n + 2 * ghosts + n * s.shaped_walls.len();
         let cells = Solver::<S, K, M, D, T>::cells_needed(&domain, f(h))?;
         let width = crate::driver::list_width(S::DIM, kappa, s.physics.beta, SKIN);
         let mut buffers = Buffers::<S>::new(capacity, cells).with_lists(width);
@@ -945,6 +969,7 @@ impl<E: Executor> Context<'_, '_, E> {
             stop: None,
             steady: false,
             checkpoint: None,
+            summary: s.summary.clone(),
         };
         let every = s.monitor.every.max(1);
         let period = self.ctl.checkpoint_every;
@@ -1054,6 +1079,7 @@ impl<E: Executor> Context<'_, '_, E> {
                 ghosts += 2.0 * 2.0 * n * slab * s.dx / s.extent[a];
             }
         }
+        ghosts += n * s.shaped_walls.len() as f64;
         let width = crate::driver::list_width(S::DIM, K::SUPPORT, s.physics.beta, SKIN) as f64;
         let per = sph_core::solver::bytes_per_particle::<S>() as f64
             + 4.0 * (width + 1.0)

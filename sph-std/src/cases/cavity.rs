@@ -59,6 +59,9 @@ fn build(s: &Settings) -> Result<Scene> {
             AxisSpec::Periodic,
         ],
         dx,
+        shaped_walls: Vec::new(),
+        initial: None,
+        summary: Vec::new(),
         regions: vec![Region {
             lo: [0.0; 3],
             hi: [1.0, 1.0, 0.0],

@@ -87,6 +87,9 @@ pub(crate) fn channel(
             AxisSpec::Periodic,
         ],
         dx,
+        shaped_walls: Vec::new(),
+        initial: None,
+        summary: Vec::new(),
         regions: vec![Region {
             lo: [0.0; 3],
             hi: [nx as f64 * dx, gap, depth],

@@ -29,9 +29,11 @@ mod cavity;
 mod couette;
 pub mod custom;
 mod poiseuille;
+mod taylor_couette;
 mod taylor_green;
 
 pub use cavity::{compare_ghia, ghia, shepard_velocity, Comparison, GhiaRow};
+pub use taylor_couette::{spin_up as taylor_couette_spin_up, steady as taylor_couette_steady};
 pub use taylor_green::velocity as taylor_green_velocity;
 
 /// A built-in case.
@@ -90,6 +92,7 @@ pub const CASES: &[Case] = &[
     couette::CASE,
     poiseuille::CASE,
     taylor_green::CASE,
+    taylor_couette::CASE,
     cavity::CASE,
     custom::CASE,
 ];

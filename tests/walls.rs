@@ -1,0 +1,102 @@
+//! Walls of any shape (sph_core::shape) against exact solutions: the
+//! Taylor-Couette flow between a spinning inner and a fixed outer cylinder,
+//! its spin-up against a reference this test computes itself, and no
+//! particle behind a wall.
+
+use sph_std::cases::{self, taylor_couette_steady, Settings};
+use sph_std::couette::Silent;
+use sph_std::scene::{self, RunRecord};
+
+const R1: f64 = 1.0;
+const R2: f64 = 2.0;
+
+fn taylor_couette(resolution: usize, t_end: f64, interval: f64) -> RunRecord {
+    let mut s: Settings = (cases::find("taylor-couette").unwrap().defaults)();
+    s.resolution = resolution;
+    s.t_end = t_end;
+    s.output_interval = interval;
+    s.threads = 2;
+    let r = scene::run(&cases::scene(&s).unwrap(), &Silent).unwrap();
+    assert!(r.complete(), "{:?}", r.stop);
+    r
+}
+
+/// The azimuthal spin-up by explicit finite differences (forward Euler on
+/// `du/dt = nu (u'' + u'/r - u/r^2)`, 400 intervals): a different method
+/// from the case's Crank-Nicolson reference, with its own error well below
+/// the SPH error it checks.
+fn explicit_spin_up(nu: f64, t: f64) -> Vec<f64> {
+    let m = 400;
+    let dr = (R2 - R1) / m as f64;
+    let dt = 0.2 * dr * dr / nu;
+    let steps = (t / dt).ceil() as usize;
+    let dt = t / steps as f64;
+    let mut u = vec![0.0; m + 1];
+    u[0] = R1; // Omega R1 with Omega = 1
+    let mut next = u.clone();
+    for _ in 0..steps {
+        for i in 1..m {
+            let r = R1 + dr * i as f64;
+            let d2 = (u[i + 1] - 2.0 * u[i] + u[i - 1]) / (dr * dr);
+            let d1 = (u[i + 1] - u[i - 1]) / (2.0 * dr);
+            next[i] = u[i] + dt * nu * (d2 + d1 / r - u[i] / (r * r));
+        }
+        next[0] = u[0];
+        next[m] = 0.0;
+        std::mem::swap(&mut u, &mut next);
+    }
+    u
+}
+
+/// Largest `|v - v_ref|` over the particles of a frame, relative to
+/// `Omega R1 = 1`, for an azimuthal reference `u_theta(r)`.
+fn worst(frame: &scene::Frame, reference: impl Fn(f64) -> f64) -> f64 {
+    frame
+        .x
+        .iter()
+        .zip(&frame.v)
+        .map(|(x, v)| {
+            let r = (x[0] * x[0] + x[1] * x[1]).sqrt();
+            let u = reference(r);
+            let (ex, ey) = (-u * x[1] / r, u * x[0] / r);
+            ((v[0] - ex).powi(2) + (v[1] - ey).powi(2)).sqrt()
+        })
+        .fold(0.0, f64::max)
+}
+
+#[test]
+fn taylor_couette_converges_to_the_steady_profile_and_follows_the_spin_up() {
+    // Re 1: nu = 1; the steady state is reached by t = 2 (R2 - R1)^2 / nu.
+    let mut errors = Vec::new();
+    for n in [20, 40] {
+        let r = taylor_couette(n, 2.0, 0.25);
+        let last = r.frames.last().unwrap();
+        let e = worst(last, taylor_couette_steady);
+        // Every particle stays in the annulus.
+        for x in &last.x {
+            let radius = (x[0] * x[0] + x[1] * x[1]).sqrt();
+            assert!(radius > R1 && radius < R2, "particle at r = {radius}");
+        }
+        // The spin-up at t = 0.25 against the explicit reference.
+        let early = &r.frames[0];
+        assert!((early.t - 0.25).abs() < 1e-12);
+        let u = explicit_spin_up(1.0, 0.25);
+        let spin = worst(early, |radius| {
+            let f = (radius - R1) / (R2 - R1) * 400.0;
+            let i = (f.floor() as usize).min(399);
+            let w = f - i as f64;
+            u[i] * (1.0 - w) + u[i + 1] * w
+        });
+        eprintln!("{n} across: steady Linf {e:.3e}, spin-up Linf {spin:.3e} (of Omega R1)");
+        errors.push((n, e, spin));
+    }
+    let (_, e40, spin40) = errors[1];
+    assert!(e40 <= 0.01, "40 across: {e40:.3e} of Omega R1");
+    assert!(spin40 <= 0.02, "spin-up at 40 across: {spin40:.3e}");
+    let order = (errors[0].1 / e40).log2();
+    eprintln!("order 20 -> 40: {order:.2}");
+    assert!(
+        order > 0.5,
+        "the error does not fall with resolution: {errors:?}"
+    );
+}
