@@ -431,6 +431,11 @@ pub struct ShapedWall {
     pub omega: f64,
     /// Centre of the rotation.
     pub center: [f64; 3],
+    /// Velocity curvature `d^2 v / d n^2` at the wall; its tangential part
+    /// continues a no-slip ghost's velocity as a parabola, `2 v_w - v +
+    /// c_t d^2` (see `crate::domain::Wall::curvature`: `-g / nu` for a
+    /// channel driven by a body force `g`).
+    pub curvature: [f64; 3],
 }
 
 impl ShapedWall {
@@ -442,7 +447,14 @@ impl ShapedWall {
             velocity: [0.0; 3],
             omega: 0.0,
             center: [0.0; 3],
+            curvature: [0.0; 3],
         }
+    }
+
+    /// The same wall with a velocity curvature (see the field).
+    pub fn with_curvature(mut self, curvature: [f64; 3]) -> Self {
+        self.curvature = curvature;
+        self
     }
 
     /// The same wall with free slip.
@@ -493,7 +505,11 @@ impl ShapedWall {
             );
         }
         let finite3 = |v: [f64; 3]| v.iter().all(|c| c.is_finite());
-        if !finite3(self.velocity) || !finite3(self.center) || !self.omega.is_finite() {
+        if !finite3(self.velocity)
+            || !finite3(self.center)
+            || !finite3(self.curvature)
+            || !self.omega.is_finite()
+        {
             return bad(
                 "wall.velocity",
                 f64::NAN,
@@ -627,7 +643,13 @@ impl ShapedWall {
             self.surface_velocity(img.wall_point)
         };
         if self.no_slip {
-            [2.0 * vw[0] - v[0], 2.0 * vw[1] - v[1], 2.0 * vw[2] - v[2]]
+            let mut g = [2.0 * vw[0] - v[0], 2.0 * vw[1] - v[1], 2.0 * vw[2] - v[2]];
+            if !homogeneous && self.curvature != [0.0; 3] {
+                let c = self.curvature;
+                let ct = axpy(-dot(c, img.normal), img.normal, c);
+                g = axpy(img.distance * img.distance, ct, g);
+            }
+            g
         } else {
             let rel = dot(sub(v, vw), img.normal);
             axpy(-2.0 * rel, img.normal, v)

@@ -31,6 +31,7 @@ pub mod custom;
 mod poiseuille;
 mod taylor_couette;
 mod taylor_green;
+mod tilted_channel;
 
 pub use cavity::{compare_ghia, ghia, shepard_velocity, Comparison, GhiaRow};
 pub use taylor_couette::{spin_up as taylor_couette_spin_up, steady as taylor_couette_steady};
@@ -93,6 +94,7 @@ pub const CASES: &[Case] = &[
     poiseuille::CASE,
     taylor_green::CASE,
     taylor_couette::CASE,
+    tilted_channel::CASE,
     cavity::CASE,
     custom::CASE,
 ];
