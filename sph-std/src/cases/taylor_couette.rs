@@ -256,7 +256,10 @@ mod tests {
             let r = R1 + (R2 - R1) * i as f64 / 200.0;
             assert!((u - steady(r)).abs() < 1e-5, "r {r}: {u} vs {}", steady(r));
         }
-        // Early on the fluid near the outer wall has not moved yet.
-        assert!(p[0][190].abs() < 1e-3 && p[0][5] > 0.5);
+        // Early on (diffusion length sqrt(nu t) = 0.22) the fluid near the
+        // outer wall has barely moved: the planar short-time solution,
+        // erfc((r - R1) / (2 sqrt(nu t))), gives 3e-3 at r = 1.95.
+        assert!(p[0][190].abs() < 1e-2, "{}", p[0][190]);
+        assert!(p[0][5] > 0.5, "{}", p[0][5]);
     }
 }
