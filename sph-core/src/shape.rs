@@ -253,21 +253,7 @@ impl Shape {
                 offset,
                 step,
             } => {
-                let at = |p: [f64; 3]| {
-                    f(
-                        &params,
-                        [p[0] + offset[0], p[1] + offset[1], p[2] + offset[2]],
-                    )
-                };
-                let d = at(x);
-                let mut g = [0.0; 3];
-                for (a, ga) in g.iter_mut().enumerate().take(dim) {
-                    let mut hi = x;
-                    let mut lo = x;
-                    hi[a] += step;
-                    lo[a] -= step;
-                    *ga = (at(hi) - at(lo)) / (2.0 * step);
-                }
+                let (d, g, _) = stencil(f, &params, offset, step, x, dim);
                 let len = f64s::sqrt(dot(g, g));
                 if len > 0.0 && len.is_finite() {
                     (d, [g[0] / len, g[1] / len, g[2] / len])
@@ -306,20 +292,7 @@ impl Shape {
                 offset,
                 step,
             } => {
-                let at = |p: [f64; 3]| {
-                    f(
-                        &params,
-                        [p[0] + offset[0], p[1] + offset[1], p[2] + offset[2]],
-                    )
-                };
-                let mut lap = 0.0;
-                for a in 0..dim {
-                    let mut hi = x;
-                    let mut lo = x;
-                    hi[a] += step;
-                    lo[a] -= step;
-                    lap += (at(hi) - 2.0 * d + at(lo)) / (step * step);
-                }
+                let (_, _, lap) = stencil(f, &params, offset, step, x, dim);
                 1.0 - 2.0 * d * lap
             }
         };
@@ -384,6 +357,37 @@ impl Shape {
             },
         }
     }
+}
+
+/// A signed distance function at `x + offset` with its central-difference
+/// gradient and Laplacian (step `step`, `dim` axes).
+fn stencil(
+    f: SdfFn,
+    params: &[f64; SDF_PARAMS],
+    offset: [f64; 3],
+    step: f64,
+    x: [f64; 3],
+    dim: usize,
+) -> (f64, [f64; 3], f64) {
+    let at = |p: [f64; 3]| {
+        f(
+            params,
+            [p[0] + offset[0], p[1] + offset[1], p[2] + offset[2]],
+        )
+    };
+    let d = at(x);
+    let mut g = [0.0; 3];
+    let mut lap = 0.0;
+    for (a, ga) in g.iter_mut().enumerate().take(dim) {
+        let mut hi = x;
+        let mut lo = x;
+        hi[a] += step;
+        lo[a] -= step;
+        let (fh, fl) = (at(hi), at(lo));
+        *ga = (fh - fl) / (2.0 * step);
+        lap += (fh - 2.0 * d + fl) / (step * step);
+    }
+    (d, g, lap)
 }
 
 fn radius_of(r: [f64; 3], dims: usize) -> f64 {
