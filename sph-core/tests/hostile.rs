@@ -359,3 +359,67 @@ fn an_untouched_resumed_state_continues_bit_for_bit() {
     };
     assert_eq!(bits(s.velocities()), bits(&expected));
 }
+
+#[test]
+fn shaped_walls_check_their_description_and_the_particles_behind_them() {
+    let ball = |r: f64| {
+        ShapedWall::new(Shape::Ball {
+            center: [0.3, 0.5, 0.0],
+            radius: r,
+            fluid_inside: false,
+        })
+    };
+    for bad in [f64::NAN, -0.1, 0.0, f64::INFINITY] {
+        assert!(
+            matches!(
+                channel(0.6, 1.0, 0.0).with_shaped_wall(ball(bad)),
+                Err(Error::InvalidParameter {
+                    name: "wall.radius",
+                    ..
+                })
+            ),
+            "radius {bad}"
+        );
+    }
+    let tilted = |n: [f64; 3]| {
+        ShapedWall::new(Shape::Plane {
+            point: [0.0; 3],
+            normal: n,
+        })
+    };
+    assert!(channel(0.6, 1.0, 0.0)
+        .with_shaped_wall(tilted([1.0, 1.0, 0.0]))
+        .is_err());
+    assert!(channel(0.6, 1.0, 0.0)
+        .with_shaped_wall(tilted([f64::NAN, 0.0, 0.0]))
+        .is_err());
+    // A plane may slide along itself, not through itself.
+    assert!(channel(0.6, 1.0, 0.0)
+        .with_shaped_wall(tilted([0.0, 1.0, 0.0]).sliding([0.0, 1.0, 0.0]))
+        .is_err());
+    // Capacity: a ninth wall is an error, not a panic.
+    let mut d = channel(0.6, 1.0, 0.0);
+    for _ in 0..8 {
+        d = d.with_shaped_wall(ball(0.01)).unwrap();
+    }
+    assert!(matches!(
+        d.with_shaped_wall(ball(0.01)),
+        Err(Error::CapacityExceeded { .. })
+    ));
+    // Four lattice particles lie inside a disc of radius 0.12 at (0.3, 0.5).
+    let domain = channel(0.6, 1.0, 0.1)
+        .with_shaped_wall(ball(0.12))
+        .unwrap();
+    let mut b = buffers();
+    match Solver::<D2<f64>, CubicSpline, Libm, _, _>::new(
+        params(),
+        domain,
+        b.storage(),
+        60,
+        (),
+        forces(morris(0.01), [0.0, 0.0], 0.0),
+    ) {
+        Err(Error::BehindWall { wall: 0, distance, .. }) => assert!(distance < 0.0),
+        other => panic!("{:?}", other.err()),
+    }
+}
