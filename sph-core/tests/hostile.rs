@@ -407,9 +407,7 @@ fn shaped_walls_check_their_description_and_the_particles_behind_them() {
         Err(Error::CapacityExceeded { .. })
     ));
     // Four lattice particles lie inside a disc of radius 0.12 at (0.3, 0.5).
-    let domain = channel(0.6, 1.0, 0.1)
-        .with_shaped_wall(ball(0.12))
-        .unwrap();
+    let domain = channel(0.6, 1.0, 0.1).with_shaped_wall(ball(0.12)).unwrap();
     let mut b = buffers();
     match Solver::<D2<f64>, CubicSpline, Libm, _, _>::new(
         params(),
@@ -419,7 +417,9 @@ fn shaped_walls_check_their_description_and_the_particles_behind_them() {
         (),
         forces(morris(0.01), [0.0, 0.0], 0.0),
     ) {
-        Err(Error::BehindWall { wall: 0, distance, .. }) => assert!(distance < 0.0),
+        Err(Error::BehindWall {
+            wall: 0, distance, ..
+        }) => assert!(distance < 0.0),
         other => panic!("{:?}", other.err()),
     }
 }
