@@ -443,7 +443,7 @@ fn execute(
             });
             if let Some(w) = worst {
                 outln!(
-                    "Against {}: largest deviation {:.3e} of the velocity scale at t = {:.4}, {} at {} ({} points)",
+                    "Against {}: largest relative deviation {:.3e} at t = {:.4}, {} at {} ({} points)",
                     r.source,
                     r.max_deviation,
                     r.t,

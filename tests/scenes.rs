@@ -253,6 +253,7 @@ fn scene_files_name_a_case_and_reject_unknown_keys() {
         "taylor-green",
         "taylor-couette",
         "tilted-channel",
+        "cylinder-array",
         "lid-driven-cavity",
     ] {
         let path = format!("{}/examples/{name}.toml", env!("CARGO_MANIFEST_DIR"));

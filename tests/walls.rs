@@ -146,3 +146,26 @@ fn a_tilted_channel_on_the_box_lattice_matches_the_aligned_channel() {
     );
     assert!(order > 1.0, "{coarse:.3e} -> {fine:.3e}");
 }
+
+#[test]
+fn a_square_array_of_cylinders_has_the_drag_of_sangani_and_acrivos() {
+    // Stokes flow (Re 0.1) through one cylinder per periodic cell, driven
+    // by a body force; the drag F / (mu U) at steady state against Sangani
+    // & Acrivos (1982), Table 1, an independent (multipole) solution.
+    for phi in [0.05, 0.1, 0.2] {
+        let mut s: Settings = (cases::find("cylinder-array").unwrap().defaults)();
+        s.solid_fraction = Some(phi);
+        s.threads = 2;
+        let r = scene::run(&cases::scene(&s).unwrap(), &Silent).unwrap();
+        // A particle behind the wall stops the run: complete means none was.
+        assert!(r.complete(), "phi {phi}: {:?}", r.stop);
+        let k = cases::cylinder_array_drag(phi).unwrap();
+        let sph = cases::cylinder_array_measured_drag(&r).unwrap();
+        eprintln!("phi {phi}: K = {sph:.3} against {k} ({:+.2} %)", 100.0 * (sph / k - 1.0));
+        assert!((sph / k - 1.0).abs() <= 0.05, "phi {phi}: {sph} vs {k}");
+        // Steady: the last two outputs agree to 0.1 %.
+        let n = r.outputs.len();
+        let (a, b) = (r.outputs[n - 2].kinetic_energy, r.outputs[n - 1].kinetic_energy);
+        assert!((a / b - 1.0).abs() < 1e-3, "not steady: {a} -> {b}");
+    }
+}

@@ -27,6 +27,7 @@ use crate::scene::{Monitor, Physics, Regularise, RunRecord, Scene};
 
 mod cavity;
 mod couette;
+mod cylinder_array;
 pub mod custom;
 mod poiseuille;
 mod taylor_couette;
@@ -34,6 +35,7 @@ mod taylor_green;
 mod tilted_channel;
 
 pub use cavity::{compare_ghia, ghia, shepard_velocity, Comparison, GhiaRow};
+pub use cylinder_array::{drag as cylinder_array_drag, measured_drag as cylinder_array_measured_drag};
 pub use taylor_couette::{spin_up as taylor_couette_spin_up, steady as taylor_couette_steady};
 pub use taylor_green::velocity as taylor_green_velocity;
 
@@ -64,7 +66,8 @@ pub struct Reference {
     /// Time of the output compared.
     pub t: f64,
     /// Largest `|sph - reference|` over the points, relative to the
-    /// velocity scale.
+    /// velocity scale for velocities and to the reference value for other
+    /// quantities (a drag).
     pub max_deviation: f64,
     /// Every point compared.
     pub points: Vec<ReferencePoint>,
@@ -95,6 +98,7 @@ pub const CASES: &[Case] = &[
     taylor_green::CASE,
     taylor_couette::CASE,
     tilted_channel::CASE,
+    cylinder_array::CASE,
     cavity::CASE,
     custom::CASE,
 ];
@@ -166,6 +170,9 @@ pub struct Settings {
     pub monitor_max_density_deviation: f64,
     /// Monitor: largest Mach number.
     pub monitor_max_mach: f64,
+    /// Area fraction of the solid: `case = "cylinder-array"` only.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub solid_fraction: Option<f64>,
     /// The scene's parts: `case = "custom"` only (see [`custom`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub scene: Option<custom::Parts>,
@@ -201,6 +208,7 @@ impl Settings {
             monitor_min_spacing: m.min_spacing,
             monitor_max_density_deviation: m.max_density_deviation,
             monitor_max_mach: m.max_mach,
+            solid_fraction: None,
             scene: None,
         }
     }

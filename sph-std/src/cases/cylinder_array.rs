@@ -1,0 +1,195 @@
+//! `cylinder-array`: Stokes flow through a square periodic array of
+//! cylinders driven by a body force (Morris, Fox & Zhu 1997), against the
+//! drag Sangani & Acrivos (1982) computed for that array.
+//!
+//! A unit cell `L = 1`, periodic both ways, one cylinder of radius
+//! `a = L sqrt(phi / pi)` at its centre (a [`Shape::Ball`] wall, fluid
+//! outside), `nu = 1`, `rho0 = 1`, a body force `g` along x chosen so that
+//! the superficial velocity from the reference drag is `U = Re nu / L`
+//! (Re 0.1 by default: the Stokes regime), `c0 = 10 U`, the consistent
+//! operators. Particles on the cell's lattice, those closer than `dx/2` to
+//! the cylinder left out. `resolution` counts particles across `L`.
+//!
+//! The reference: Sangani & Acrivos (1982), "Slow flow past periodic
+//! arrays of cylinders with application to heat transfer", Int. J.
+//! Multiphase Flow 8: 193-206, Table 1 (square array): the drag per unit
+//! length over `mu U`, `K = F / (mu U)`, for solid fractions 0.05 to 0.75.
+//! Here `F = rho g L^2`, the force per cell (with a mean pressure gradient
+//! `G = rho g` driving the flow instead, `G L^2` is the whole force on the
+//! cylinder), and `U` the superficial velocity, the volume flux per unit
+//! cell area, `sum_i u_i V_i / L^2`. Basilisk's test of the same table
+//! (`src/test/cylinders.c`) uses the same definitions. Fractions between
+//! the tabulated ones are interpolated linearly in `ln K`.
+
+use sph_core::prelude::{Shape, ShapedWall};
+
+use super::{Case, Reference, ReferencePoint, Settings};
+use crate::config::check;
+use crate::error::Result;
+use crate::scene::{AxisSpec, Region, RunRecord, Scene};
+
+/// The case's table entry.
+pub const CASE: Case = Case {
+    name: "cylinder-array",
+    about: "Stokes flow through a square periodic array of cylinders (solid fraction 0.1 by default), drag against Sangani & Acrivos (1982)",
+    defaults,
+    build,
+    figure,
+    reference,
+};
+
+/// Sangani & Acrivos (1982), Table 1, square array: `(phi, F / (mu U))`.
+pub const SANGANI_ACRIVOS: [(f64, f64); 9] = [
+    (0.05, 15.56),
+    (0.10, 24.83),
+    (0.20, 51.53),
+    (0.30, 102.90),
+    (0.40, 217.89),
+    (0.50, 532.55),
+    (0.60, 1.763e3),
+    (0.70, 1.352e4),
+    (0.75, 1.263e5),
+];
+
+/// The reference drag `K = F / (mu U)` at solid fraction `phi` (in the
+/// table's range; linear in `ln K` between its rows).
+pub fn drag(phi: f64) -> Option<f64> {
+    let t = &SANGANI_ACRIVOS;
+    if !(phi >= t[0].0 && phi <= t[t.len() - 1].0) {
+        return None;
+    }
+    for w in t.windows(2) {
+        let ((p0, k0), (p1, k1)) = (w[0], w[1]);
+        if phi <= p1 {
+            let s = (phi - p0) / (p1 - p0);
+            return Some((k0.ln() * (1.0 - s) + k1.ln() * s).exp());
+        }
+    }
+    None
+}
+
+fn defaults() -> Settings {
+    let mut s = Settings::base("cylinder-array", 40, 1.0, 0.1, 0.1).consistent();
+    s.solid_fraction = Some(0.1);
+    s
+}
+
+fn build(s: &Settings) -> Result<Scene> {
+    super::only_2d(s)?;
+    let phi = s.solid_fraction.unwrap_or(0.1);
+    check(
+        (0.05..=0.5).contains(&phi),
+        "solid_fraction",
+        phi,
+        "must be between 0.05 and 0.5 (the reference table's range where the gap holds a few particles)",
+    )?;
+    let k = drag(phi).unwrap_or(f64::NAN);
+    let l = 1.0;
+    let nu = 1.0;
+    let rho0 = 1.0;
+    let u = s.re * nu / l;
+    let g = k * nu * u / (l * l);
+    let dx = l / s.resolution as f64;
+    let radius = l * (phi / std::f64::consts::PI).sqrt();
+    let center = [0.5 * l, 0.5 * l, 0.0];
+    let cylinder = ShapedWall::new(Shape::Ball {
+        center,
+        radius,
+        fluid_inside: false,
+    });
+    Ok(Scene {
+        case: s.case.clone(),
+        dim: 2,
+        origin: [0.0; 3],
+        extent: [l, l, 0.0],
+        axes: [AxisSpec::Periodic, AxisSpec::Periodic, AxisSpec::Periodic],
+        dx,
+        regions: vec![Region {
+            lo: [0.0; 3],
+            hi: [l, l, 0.0],
+        }],
+        shaped_walls: vec![cylinder],
+        initial: None,
+        summary: vec![
+            ("solid_fraction".into(), phi.into()),
+            ("radius".into(), radius.into()),
+            ("center".into(), serde_json::json!([center[0], center[1]])),
+            ("cell".into(), l.into()),
+        ],
+        velocity: None,
+        pressure: None,
+        body_force: [g, 0.0, 0.0],
+        rho0,
+        nu,
+        physics: s.physics(u, rho0),
+        output_times: s.output_times(),
+        velocity_scale: u,
+        length_scale: l,
+        exact: None,
+        error_decay: 0.0,
+        monitor: s.monitor(),
+        steady_tolerance: None,
+        threads: s.threads,
+        keep_particles: true,
+        allow_long_run: false,
+    })
+}
+
+/// The drag `F / (mu U)` of a run's last output: `F = rho g L^2` and the
+/// superficial velocity `U = sum_i u_i V_i / L^2` (`V_i = dx^2`, the
+/// lattice's volume per particle).
+pub fn measured_drag(record: &RunRecord) -> Option<f64> {
+    let frame = record.frames.last()?;
+    let l = record.length_scale;
+    let volume = record.dx * record.dx;
+    let flux: f64 = frame.v.iter().map(|v| v[0] * volume).sum();
+    let u = flux / (l * l);
+    let f = record.rho0 * record.body_force[0] * l * l;
+    (u > 0.0).then(|| f / (record.rho0 * record.nu * u))
+}
+
+fn reference(record: &RunRecord) -> Option<Reference> {
+    let phi = record
+        .summary
+        .iter()
+        .find(|(k, _)| k == "solid_fraction")
+        .and_then(|(_, v)| v.as_f64())?;
+    let k = drag(phi)?;
+    let sph = measured_drag(record)?;
+    Some(Reference {
+        source: "Sangani & Acrivos 1982, Int. J. Multiphase Flow 8: 193-206, Table 1 (square array)"
+            .into(),
+        t: record.frames.last()?.t,
+        max_deviation: (sph - k).abs() / k,
+        points: vec![ReferencePoint {
+            quantity: "F/(mu U)",
+            at: phi,
+            reference: k,
+            sph,
+        }],
+    })
+}
+
+/// The particles at the last output, coloured by speed.
+fn figure(scene: &Scene, record: &RunRecord) -> Result<Vec<u8>> {
+    super::custom::speed_figure(scene, record, "Cylinder array")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_table_is_interpolated_in_log_k_and_exact_at_its_rows() {
+        assert_eq!(drag(0.1), Some(24.83));
+        assert_eq!(drag(0.2), Some(51.53));
+        let mid = drag(0.15).unwrap();
+        assert!((mid - (24.83f64 * 51.53).sqrt()).abs() < 1e-9);
+        assert_eq!(drag(0.01), None);
+        // The dilute limit of the square array (Sangani & Acrivos eq. for
+        // small phi): 4 pi / (-ln(phi)/2 - 0.738 + phi - 0.887 phi^2).
+        let p: f64 = 0.05;
+        let dilute = 4.0 * std::f64::consts::PI / (-0.5 * p.ln() - 0.738 + p - 0.887 * p * p);
+        assert!((dilute - drag(0.05).unwrap()).abs() < 0.02 * dilute);
+    }
+}
