@@ -177,6 +177,35 @@ pub fn shaped_ghost<S: Space>(
     Some((narrow::<S>(vg), S::Real::from_f64(img.jacobian)))
 }
 
+/// The part along the wall normals of the offset from a source at `x` to
+/// its ghost across the walls in `mirrors`: `-2 x_a` or `2 (L_a - x_a)` on
+/// each mirrored axis of the box, `-2 d n` through a shaped wall (whose
+/// image lies on the normal already). A point-reflected ghost's offset
+/// along its wall is left out: it is a kinematic device, not a depth.
+#[inline]
+pub fn image_offset<S: Space>(domain: &Domain<S>, x: S::Vector, mirrors: u8) -> S::Vector {
+    let mut dx = S::Vector::zero();
+    if mirrors & BODY_FLAG != 0 {
+        if let Some(w) = domain.shaped_wall(usize::from(mirrors & !BODY_FLAG)) {
+            let img = w.shape.image(widen::<S>(x), S::DIM);
+            for a in 0..S::DIM {
+                dx[a] = S::Real::from_f64(-2.0 * img.distance * img.normal[a]);
+            }
+        }
+        return dx;
+    }
+    let extent = domain.extent();
+    for a in 0..S::DIM {
+        if mirrors & (1 << (2 * a)) != 0 {
+            dx[a] = -S::Real::TWO * x[a];
+        }
+        if mirrors & (1 << (2 * a + 1)) != 0 {
+            dx[a] = S::Real::TWO * (extent[a] - x[a]);
+        }
+    }
+    dx
+}
+
 /// The curvature part of the ghost velocity for a source at `x` across the
 /// walls in `mirrors`: `curvature d^2` per wall, `d` the source's distance
 /// from it (see [`crate::domain::Wall::curvature`]).
@@ -407,5 +436,29 @@ mod tests {
                 available: 1
             })
         );
+    }
+
+    #[test]
+    fn image_offsets_are_the_depth_along_the_wall_normals() {
+        let d = box_domain();
+        let x = V2::new([0.1, 0.3]);
+        // Lower y wall: the ghost lies 2 y below; upper: 2 (1 - y) above.
+        assert_eq!(image_offset(&d, x, 0b0100), V2::new([0.0, -0.6]));
+        assert_eq!(image_offset(&d, x, 0b1000)[1], 2.0 * (1.0 - 0.3));
+        // A corner image: both normal offsets.
+        assert_eq!(image_offset(&d, x, 0b0101), V2::new([-0.2, -0.6]));
+        // A curved wall: a circle of radius 0.4 about the box's centre with
+        // the fluid inside; a point 0.1 from it on the line through the
+        // centre at 45 degrees has its image 0.2 further out on that line.
+        let wall = crate::shape::ShapedWall::new(crate::shape::Shape::Ball {
+            center: [0.5, 0.5, 0.0],
+            radius: 0.4,
+            fluid_inside: true,
+        });
+        let d = d.with_shaped_wall(wall).unwrap();
+        let r = 0.3 / 2f64.sqrt();
+        let off = image_offset(&d, V2::new([0.5 + r, 0.5 + r]), BODY_FLAG);
+        let expect = 0.2 / 2f64.sqrt();
+        assert!((off[0] - expect).abs() < 1e-12 && (off[1] - expect).abs() < 1e-12);
     }
 }

@@ -160,6 +160,8 @@ pub struct Domain<S: Space> {
     /// Walls of any shape ([`crate::shape`]), the first `n_shaped` used.
     shaped: [Option<ShapedWall>; MAX_SHAPED_WALLS],
     n_shaped: usize,
+    /// Body force per unit mass the ghosts' pressure balances, if any.
+    gravity: Option<S::Vector>,
 }
 
 fn axis_error(axis: usize) -> Error {
@@ -203,6 +205,7 @@ impl<S: Space> Domain<S> {
             anchors: [[S::Vector::zero(); 2]; 3],
             shaped: [None; MAX_SHAPED_WALLS],
             n_shaped: 0,
+            gravity: None,
         })
     }
 
@@ -292,6 +295,37 @@ impl<S: Space> Domain<S> {
         self.shaped[self.n_shaped] = Some(wall);
         self.n_shaped += 1;
         Ok(self)
+    }
+
+    /// Makes the ghosts' pressure balance a body force `g` per unit mass
+    /// across every wall: a ghost at `r_g` imaging the fluid particle at
+    /// `r_f` takes `p_g = p_f + rho_f g . (r_g - r_f)_n` (the offset's part
+    /// along the wall normal, so that a force along a wall, such as a
+    /// channel's driving force, adds nothing) and the density the equation
+    /// of state gives for `p_g` (`docs/physics.md` 5.1). A tank at rest then
+    /// stays at rest; without it the mirrored pressure has zero normal
+    /// gradient and the wall supports no weight. Scenes without a body force
+    /// leave it unset and the ghosts copy their source's pressure.
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] if a component is not finite.
+    pub fn with_wall_gravity(mut self, g: S::Vector) -> Result<Self> {
+        if !g.is_finite() {
+            return Err(Error::InvalidParameter {
+                name: "wall_gravity",
+                value: f64::NAN,
+                rule: "every component of the gravity the walls balance must be finite",
+            });
+        }
+        self.gravity = Some(g);
+        Ok(self)
+    }
+
+    /// The body force the ghosts' pressure balances
+    /// ([`Self::with_wall_gravity`]).
+    #[inline]
+    pub fn wall_gravity(&self) -> Option<S::Vector> {
+        self.gravity
     }
 
     /// Number of shaped walls.

@@ -101,6 +101,32 @@ impl<F: Real> Eos<F> {
         }
     }
 
+    /// Density at pressure `p`: the inverse of [`Self::pressure`]. For
+    /// [`Eos::None`], which has none, and for a Tait pressure at or below
+    /// `p0 - B` (a tension the equation reaches only at zero density) it is
+    /// `fallback`, so that a density never comes out zero or negative.
+    #[inline]
+    pub fn density<M: Math<F>>(&self, p: F, fallback: F) -> F {
+        match *self {
+            Eos::None => fallback,
+            Eos::Linear { rho0, c0, p0 } => rho0 + (p - p0) / (c0 * c0),
+            Eos::Tait {
+                rho0,
+                c0,
+                gamma,
+                p0,
+            } => {
+                let b = rho0 * c0 * c0 / gamma;
+                let base = (p - p0) / b + F::ONE;
+                if base > F::ZERO {
+                    rho0 * M::powf(base, F::ONE / gamma)
+                } else {
+                    fallback
+                }
+            }
+        }
+    }
+
     /// Reference sound speed (zero for [`Eos::None`]).
     pub fn sound_speed(&self) -> F {
         match *self {
@@ -122,6 +148,32 @@ impl<F: Real> Eos<F> {
 mod tests {
     use super::*;
     use crate::math::Libm;
+
+    #[test]
+    fn density_inverts_pressure() {
+        let tait = Eos::Tait {
+            rho0: 1000.0,
+            c0: 20.0,
+            gamma: 7.0,
+            p0: 50.0,
+        };
+        let lin = Eos::Linear {
+            rho0: 1.0,
+            c0: 3.0,
+            p0: -2.0,
+        };
+        for rho in [950.0, 999.0, 1000.0, 1003.5, 1040.0] {
+            let back = tait.density::<Libm>(tait.pressure::<Libm>(rho), 0.0);
+            assert!((back - rho).abs() < 1e-9 * rho, "{rho} -> {back}");
+        }
+        for rho in [0.9, 1.0, 1.1] {
+            let back = lin.density::<Libm>(lin.pressure::<Libm>(rho), 0.0);
+            assert!((back - rho).abs() < 1e-14, "{rho} -> {back}");
+        }
+        // Beyond the tension the Tait curve reaches: the fallback.
+        assert_eq!(tait.density::<Libm>(-1e9, 998.0), 998.0);
+        assert_eq!(Eos::<f64>::None.density::<Libm>(5.0, 0.7), 0.7);
+    }
 
     #[test]
     fn pressures_vanish_at_reference_density_and_agree_to_first_order() {

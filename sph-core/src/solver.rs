@@ -1235,10 +1235,23 @@ where
         let n = self.n;
         let (fluid_rho, ghost_rho) = self.a.rho.split_at_mut(n);
         let (fluid_p, ghost_p) = self.a.p.split_at_mut(n);
-        for (k, g) in self.a.ghosts[..self.n_ghost].iter().enumerate() {
+        let ghosts = self.a.ghosts[..self.n_ghost].iter().enumerate();
+        let Some(gravity) = self.domain.wall_gravity() else {
+            for (k, g) in ghosts {
+                let s = g.source as usize;
+                ghost_rho[k] = fluid_rho[s];
+                ghost_p[k] = fluid_p[s];
+            }
+            return;
+        };
+        // The wall's normal momentum balance (`Domain::with_wall_gravity`).
+        let eos = self.params.eos;
+        for (k, g) in ghosts {
             let s = g.source as usize;
-            ghost_rho[k] = fluid_rho[s];
-            ghost_p[k] = fluid_p[s];
+            let offset = boundary::image_offset(&self.domain, self.a.x[s], g.mirrors);
+            let p = fluid_p[s] + fluid_rho[s] * gravity.dot(offset);
+            ghost_p[k] = p;
+            ghost_rho[k] = eos.density::<M>(p, fluid_rho[s]);
         }
     }
 
