@@ -45,7 +45,7 @@ pub mod prelude {
     pub use crate::space::{Space, Vector, VectorOps, D1, D2, D3};
     pub use crate::store::Store;
     pub use crate::terms::{
-        AnyContinuity, AnyViscosity, ArtificialViscosity, BodyForce, Continuity,
+        AnyContinuity, AnyPressure, AnyViscosity, ArtificialViscosity, BodyForce, Continuity,
         CorrectedMorrisViscosity, DensityDiffusion, MorrisViscosity, PiViscosity, PressureGradient,
         Shifting, SummationDensity, Term,
     };

@@ -593,6 +593,137 @@ impl<S: Space> Term<S> for PressureGradient {
     }
 }
 
+/// The scratch of [`AnyPressure::Corrected`]: the moment matrix
+/// `M_ab = sum_j V_j (x_j - x_i)_a (grad_i W_ij)_b` (rows `a`), the
+/// pressure sum `g_b = sum_j V_j (p_j - p_i) (grad_i W_ij)_b`, and the
+/// symmetric form's acceleration, the fallback.
+#[derive(Clone, Copy, Debug)]
+pub struct PressureMoments<S: Space> {
+    /// Rows of `M`.
+    pub m: [S::Vector; 3],
+    /// The pressure sum.
+    pub g: S::Vector,
+    /// [`PressureGradient`]'s acceleration.
+    pub plain: S::Vector,
+}
+
+impl<S: Space> Default for PressureMoments<S> {
+    fn default() -> Self {
+        Self {
+            m: [S::Vector::zero(); 3],
+            g: S::Vector::zero(),
+            plain: S::Vector::zero(),
+        }
+    }
+}
+
+/// The pressure gradient chosen at run time: the symmetric form
+/// ([`PressureGradient`], conserving momentum exactly) or its
+/// kernel-gradient-corrected difference form, one solver type for both.
+///
+/// `Corrected` takes `a_i = -M^-1 g / rho_i` (see [`PressureMoments`];
+/// `V_j = m_j / rho_j`): exact for linear pressure fields on any
+/// arrangement, so a fluid at rest under gravity feels no force from the
+/// arrangement of its particles, only from the pressure's departure from
+/// the hydrostatic field. The symmetric form is exact only for a constant
+/// pressure on a regular lattice: elsewhere it pushes particles with a
+/// force proportional to the absolute pressure, which a tank of any depth
+/// turns into motion wherever the lattice does not conform to the wall
+/// (docs/validation.md, closed-tank). The price: pair forces are no
+/// longer antisymmetric, so momentum is conserved only to the truncation
+/// error. A particle whose moment matrix is singular falls back to the
+/// symmetric form.
+///
+/// ```
+/// use sph_core::prelude::*;
+/// use sph_core::terms::{Acc, Consts, Dest, Fields, Pair, PressureMoments};
+///
+/// // A particle at the origin with eight neighbours on a ring, at random
+/// // angles (no symmetry), in the pressure field p = 3 + 2 x - 5 y.
+/// let angles = [0.3, 1.1, 1.7, 2.9, 3.4, 4.4, 5.1, 5.9];
+/// let mut x = vec![Vector::new([0.0, 0.0])];
+/// x.extend(angles.iter().map(|a: &f64| Vector::new([0.1 * a.cos(), 0.1 * a.sin()])));
+/// let v = vec![Vector::new([0.0, 0.0]); 9];
+/// let p: Vec<f64> = x.iter().map(|x| 3.0 + 2.0 * x[0] - 5.0 * x[1]).collect();
+/// let (m, rho) = (vec![0.01; 9], vec![1.0; 9]);
+/// let f = Fields::<D2<f64>> { x: &x, v: &v, m: &m, rho: &rho, p: &p };
+/// let k = Consts { h: 0.08, eta2: 0.0, c0: 10.0 };
+/// let d = Dest { i: 0, v: v[0], m: m[0], rho: rho[0], p: p[0] };
+/// let (mut acc, mut scratch) = (Acc::default(), PressureMoments::default());
+/// let t = AnyPressure::Corrected;
+/// for j in 1..9 {
+///     let r_ij = x[0] - x[j];
+///     // Any radial kernel works: F = (1/r) dW/dr = -1 here.
+///     let pair = Pair { j, r_ij, r2: r_ij.norm2(), w: 1.0, f: -1.0, grad: -r_ij, v_ij: v[0] - v[j] };
+///     Term::<D2<f64>>::pair(&t, &k, &d, &f, &pair, &mut acc);
+///     Term::<D2<f64>>::pair_scratch(&t, &k, &d, &f, &pair, &mut scratch);
+/// }
+/// Term::<D2<f64>>::finish(&t, &k, &d, &scratch, &mut acc);
+/// // -grad p / rho, exactly (to rounding).
+/// assert!((acc.dv[0] + 2.0).abs() < 1e-12 && (acc.dv[1] - 5.0).abs() < 1e-12);
+/// ```
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum AnyPressure {
+    /// [`PressureGradient`].
+    #[default]
+    Symmetric,
+    /// The kernel-gradient-corrected difference form.
+    Corrected,
+}
+
+impl<S: Space> Term<S> for AnyPressure {
+    type Scratch = PressureMoments<S>;
+    const NEEDS_F: bool = true;
+    #[inline(always)]
+    fn pair(&self, k: &Consts<S>, d: &Dest<S>, f: &Fields<'_, S>, p: &Pair<S>, acc: &mut Acc<S>) {
+        if *self == Self::Symmetric {
+            <PressureGradient as Term<S>>::pair(&PressureGradient, k, d, f, p, acc);
+        }
+    }
+
+    #[inline(always)]
+    fn pair_scratch(
+        &self,
+        _k: &Consts<S>,
+        d: &Dest<S>,
+        f: &Fields<'_, S>,
+        p: &Pair<S>,
+        acc: &mut PressureMoments<S>,
+    ) {
+        if *self == Self::Symmetric || p.r2 <= S::Real::ZERO {
+            return;
+        }
+        let j = p.j;
+        let rho_j = f.rho[j];
+        let coeff = f.m[j] * (d.p / (d.rho * d.rho) + f.p[j] / (rho_j * rho_j));
+        acc.plain -= p.grad * coeff;
+        // (x_j - x_i) = -r_ij.
+        let vol = f.m[j] / rho_j;
+        for a in 0..S::DIM {
+            acc.m[a] -= p.grad * (vol * p.r_ij[a]);
+        }
+        acc.g += p.grad * (vol * (f.p[j] - d.p));
+    }
+
+    #[inline(always)]
+    fn finish(&self, _k: &Consts<S>, d: &Dest<S>, r: &PressureMoments<S>, acc: &mut Acc<S>) {
+        if *self == Self::Symmetric {
+            return;
+        }
+        // M is symmetric, so g = M^T grad p gives grad p = M^-1 g.
+        acc.dv += match inverse_symmetric::<S>(&r.m) {
+            Some(inv) => {
+                let mut grad = S::Vector::zero();
+                for a in 0..S::DIM {
+                    grad[a] = inv[a].dot(r.g);
+                }
+                grad * (-S::Real::ONE / d.rho)
+            }
+            None => r.plain,
+        };
+    }
+}
+
 /// A uniform body force per unit mass (gravity, or a driving pressure gradient).
 ///
 /// ```
