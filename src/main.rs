@@ -12,7 +12,7 @@ use sph_std::config::{
 };
 use sph_std::error::Result;
 use sph_std::output::VtkEncoding;
-use sph_std::scene::{Regularise, RunControl, RunRecord, Stop};
+use sph_std::scene::{PressureForm, Regularise, RunControl, RunRecord, Stop, WallPressure};
 use sph_std::{bench, checkpoint, couette, output, progress, report, studies};
 
 /// `println!` for results: a closed pipe on stdout ends the program quietly
@@ -191,6 +191,13 @@ struct RunArgs {
     /// Time step as a fraction of the smallest stability limit.
     #[arg(long, value_name = "F")]
     dt_factor: Option<f64>,
+    /// Wall ghost pressure: hydrostatic (balances the body force) or mirror.
+    #[arg(long, value_name = "RULE", value_parser = parse_name::<WallPressure>)]
+    wall_pressure: Option<WallPressure>,
+    /// Pressure gradient: symmetric, or corrected (exact for linear pressure
+    /// on any arrangement; continuity density only).
+    #[arg(long, value_name = "FORM", value_parser = parse_name::<PressureForm>)]
+    pressure_gradient: Option<PressureForm>,
     /// Write VTK particle snapshots (.vtu and a .pvd index).
     #[arg(long)]
     vtk: bool,
@@ -254,7 +261,9 @@ impl RunArgs {
             regularise,
             shift_coefficient,
             density_diffusion,
-            dt_factor
+            dt_factor,
+            wall_pressure,
+            pressure_gradient
         );
         s.validate()?;
         Ok(s)

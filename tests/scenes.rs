@@ -246,6 +246,23 @@ fn scene_files_name_a_case_and_reject_unknown_keys() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("resolutoin"), "{e}");
+    // A case's own key on another case is an unknown key there.
+    let e = Settings::from_toml("case = \"couette\"\ncontainer = \"circle\"\n")
+        .and_then(|s| s.validate())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("container"), "{e}");
+    // The corrected pressure gradient needs continuity density.
+    let e = Settings::from_toml(
+        "case = \"closed-tank\"\ndensity = \"summation\"\npressure_gradient = \"corrected\"\n",
+    )
+    .and_then(|s| s.validate())
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("pressure_gradient") && e.contains("continuity"),
+        "{e}"
+    );
     // Every example file parses and validates.
     for name in [
         "couette-scene",
@@ -254,6 +271,7 @@ fn scene_files_name_a_case_and_reject_unknown_keys() {
         "taylor-couette",
         "tilted-channel",
         "cylinder-array",
+        "closed-tank",
         "lid-driven-cavity",
     ] {
         let path = format!("{}/examples/{name}.toml", env!("CARGO_MANIFEST_DIR"));

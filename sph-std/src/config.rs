@@ -113,6 +113,34 @@ named_enum!(
 );
 
 named_enum!(
+    /// The pressure-gradient form.
+    PressureForm {
+        /// `-sum_j m_j (p_i / rho_i^2 + p_j / rho_j^2) grad W_ij`:
+        /// conserves momentum exactly (`sph_core::terms::PressureGradient`).
+        Symmetric => "symmetric",
+        /// The kernel-gradient-corrected difference form, exact for linear
+        /// pressure fields on any arrangement; continuity density only
+        /// (`sph_core::terms::AnyPressure::Corrected`).
+        Corrected => "corrected",
+    }
+);
+
+named_enum!(
+    /// What the wall ghosts' pressure balances.
+    WallPressure {
+        /// Each ghost copies its source's pressure (zero normal gradient):
+        /// exact where nothing pushes on the wall, as in the channel cases.
+        Mirror => "mirror",
+        /// The ghost's pressure adds the scene's body force over the depth
+        /// between source and ghost, `p_g = p_f + rho_f g . (r_g - r_f)_n`
+        /// (`sph_core::domain::Domain::with_wall_gravity`), so that a tank
+        /// under gravity stays at rest. The same as `mirror` without a body
+        /// force or with one along the walls.
+        Hydrostatic => "hydrostatic",
+    }
+);
+
+named_enum!(
     /// Floating-point precision of the whole computation.
     Precision {
         /// Single precision.

@@ -25,7 +25,10 @@ use sph_core::prelude::Limits;
 use crate::checkpoint::Checkpoint;
 use crate::config::{CouetteConfig, KernelName, ViscosityForm};
 use crate::error::{Error, Result};
-use crate::scene::{AxisSpec, Monitor, Physics, Region, Regularise, Scene, Stop, WallSpec};
+use crate::scene::{
+    AxisSpec, Monitor, Physics, PressureForm, Region, Regularise, Scene, Stop, WallPressure,
+    WallSpec,
+};
 
 /// Verlet skin of the neighbour lists (fraction of the support radius).
 pub const SKIN: f64 = 0.1;
@@ -298,6 +301,9 @@ pub fn scene(cfg: &CouetteConfig) -> Scene {
             sound_speed: geo.c0,
             background_pressure: cfg.background_pressure * cfg.rho0 * geo.c0 * geo.c0,
             dt_factor: cfg.dt_factor,
+            // No body force: both rules give the same ghosts.
+            wall_pressure: WallPressure::Mirror,
+            pressure_gradient: PressureForm::Symmetric,
         },
         output_times: cfg.schedule(),
         velocity_scale: cfg.u_wall,

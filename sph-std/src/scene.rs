@@ -23,15 +23,17 @@ use sph_core::kernel::{
 };
 use sph_core::math::{Libm, Math, Micromath};
 use sph_core::prelude::{
-    AnyContinuity, AnyViscosity, ArtificialViscosity, BodyForce, CorrectedMorrisViscosity,
-    DensityDiffusion, Domain, Eos, MorrisViscosity, Params, PiViscosity, PressureGradient,
-    Reflection, ShapedWall, Shifting, Side, Solver, SummationDensity, Term, Wall, D2, D3,
+    AnyContinuity, AnyPressure, AnyViscosity, ArtificialViscosity, BodyForce,
+    CorrectedMorrisViscosity, DensityDiffusion, Domain, Eos, MorrisViscosity, Params, PiViscosity,
+    PressureGradient, Reflection, ShapedWall, Shifting, Side, Solver, SummationDensity, Term, Wall,
+    D2, D3,
 };
 use sph_core::real::Real;
 use sph_core::space::{Space, VectorOps};
 
 use crate::checkpoint::Checkpoint;
 use crate::config::{DensityMode, KernelName, MathBackend, Precision, ViscosityForm};
+pub use crate::config::{PressureForm, WallPressure};
 use crate::couette::{Progress, SKIN};
 use crate::driver::{Buffers, Rayon};
 use crate::error::{Error, Result};
@@ -178,6 +180,10 @@ pub struct Physics {
     pub background_pressure: f64,
     /// Time step as a fraction of the smallest stability limit.
     pub dt_factor: f64,
+    /// What the wall ghosts' pressure balances.
+    pub wall_pressure: WallPressure,
+    /// The pressure-gradient form (continuity density only).
+    pub pressure_gradient: PressureForm,
 }
 
 /// Bounds of the state monitor: a run whose state crosses one stops.
@@ -667,6 +673,12 @@ where
     let diffusion = DensityDiffusion {
         delta: f(scene.physics.density_diffusion),
     };
+    // With continuity density the pressure gradient is chosen at run time
+    // (summation density keeps the symmetric form, validated up front).
+    let pressure = match scene.physics.pressure_gradient {
+        PressureForm::Symmetric => AnyPressure::Symmetric,
+        PressureForm::Corrected => AnyPressure::Corrected,
+    };
     let mut ctx = Context { scene, exec, ctl };
     // The shifting velocity scale follows the flow: C h max(|v|, U/100).
     let c_h = scene.physics.shift_coefficient * h;
@@ -685,18 +697,12 @@ where
         ),
         (continuity, Regularise::None) => ctx.simulate::<S, K, M, _, _>(
             (),
-            ((by_form(continuity), diffusion), PressureGradient, visc, g),
+            ((by_form(continuity), diffusion), pressure, visc, g),
             |_, _| {},
         ),
         (continuity, Regularise::Shifting) => ctx.simulate::<S, K, M, _, _>(
             (),
-            (
-                (by_form(continuity), diffusion),
-                PressureGradient,
-                visc,
-                g,
-                shift,
-            ),
+            ((by_form(continuity), diffusion), pressure, visc, g, shift),
             |t, v| retune(&mut t.4, v),
         ),
     }
@@ -775,6 +781,9 @@ impl<E: Executor> Context<'_, '_, E> {
         let to_local = [-s.origin[0], -s.origin[1], -s.origin[2]];
         for w in &s.shaped_walls {
             domain = domain.with_shaped_wall(w.translated(to_local))?;
+        }
+        if s.physics.wall_pressure == WallPressure::Hydrostatic && s.body_force != [0.0; 3] {
+            domain = domain.with_wall_gravity(S::Vector::from_fn(|a| f(s.body_force[a])))?;
         }
         Ok(domain)
     }

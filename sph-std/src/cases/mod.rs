@@ -23,19 +23,23 @@ use serde::{Deserialize, Serialize};
 use crate::config::{check, DensityMode, KernelName, MathBackend, Precision, ViscosityForm};
 use crate::error::{Error, Result};
 use crate::plot::{line_plot, Axes, Series};
-use crate::scene::{Monitor, Physics, Regularise, RunRecord, Scene};
+use crate::scene::{Monitor, Physics, PressureForm, Regularise, RunRecord, Scene, WallPressure};
 
 mod cavity;
+mod closed_tank;
 mod couette;
-mod cylinder_array;
 pub mod custom;
+mod cylinder_array;
 mod poiseuille;
 mod taylor_couette;
 mod taylor_green;
 mod tilted_channel;
 
 pub use cavity::{compare_ghia, ghia, shepard_velocity, Comparison, GhiaRow};
-pub use cylinder_array::{drag as cylinder_array_drag, measured_drag as cylinder_array_measured_drag};
+pub use closed_tank::{pressure_probes as closed_tank_pressure_probes, Container};
+pub use cylinder_array::{
+    drag as cylinder_array_drag, measured_drag as cylinder_array_measured_drag,
+};
 pub use taylor_couette::{spin_up as taylor_couette_spin_up, steady as taylor_couette_steady};
 pub use taylor_green::velocity as taylor_green_velocity;
 
@@ -66,8 +70,8 @@ pub struct Reference {
     /// Time of the output compared.
     pub t: f64,
     /// Largest `|sph - reference|` over the points, relative to the
-    /// velocity scale for velocities and to the reference value for other
-    /// quantities (a drag).
+    /// velocity scale for velocities, to the reference value for a drag and
+    /// to `rho0 g D` for a pressure (each case's docs say which).
     pub max_deviation: f64,
     /// Every point compared.
     pub points: Vec<ReferencePoint>,
@@ -99,9 +103,18 @@ pub const CASES: &[Case] = &[
     taylor_couette::CASE,
     tilted_channel::CASE,
     cylinder_array::CASE,
+    closed_tank::CASE,
     cavity::CASE,
     custom::CASE,
 ];
+
+fn hydrostatic() -> WallPressure {
+    WallPressure::Hydrostatic
+}
+
+fn symmetric() -> PressureForm {
+    PressureForm::Symmetric
+}
 
 /// The case called `name`.
 ///
@@ -162,6 +175,15 @@ pub struct Settings {
     pub sound_speed_factor: f64,
     /// Background pressure as a fraction of `rho0 c0^2`.
     pub background_pressure: f64,
+    /// What the wall ghosts' pressure balances: `hydrostatic` (the body
+    /// force across the wall) or `mirror` (a copy of the source's).
+    #[serde(default = "hydrostatic")]
+    pub wall_pressure: WallPressure,
+    /// The pressure gradient: `symmetric` (conserves momentum) or
+    /// `corrected` (exact for linear pressure on any arrangement;
+    /// continuity density only).
+    #[serde(default = "symmetric")]
+    pub pressure_gradient: PressureForm,
     /// Worker threads (0: all cores).
     pub threads: usize,
     /// Monitor: smallest closest-pair distance, in `dx`.
@@ -173,6 +195,9 @@ pub struct Settings {
     /// Area fraction of the solid: `case = "cylinder-array"` only.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub solid_fraction: Option<f64>,
+    /// The container: `case = "closed-tank"` only.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub container: Option<Container>,
     /// The scene's parts: `case = "custom"` only (see [`custom`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub scene: Option<custom::Parts>,
@@ -204,11 +229,14 @@ impl Settings {
             dt_factor: 0.7,
             sound_speed_factor: 10.0,
             background_pressure: 0.0,
+            wall_pressure: WallPressure::Hydrostatic,
+            pressure_gradient: PressureForm::Symmetric,
             threads: 0,
             monitor_min_spacing: m.min_spacing,
             monitor_max_density_deviation: m.max_density_deviation,
             monitor_max_mach: m.max_mach,
             solid_fraction: None,
+            container: None,
             scene: None,
         }
     }
@@ -388,6 +416,31 @@ impl Settings {
                 "micromath implements f32 only: use precision = \"f32\"",
             ));
         }
+        if self.pressure_gradient == PressureForm::Corrected
+            && self.density == DensityMode::Summation
+        {
+            return Err(Error::config(
+                "pressure_gradient",
+                self.pressure_gradient,
+                "corrected needs continuity density: use density = \"corrected\" or \"continuity\"",
+            ));
+        }
+        for (key, set, case) in [
+            (
+                "solid_fraction",
+                self.solid_fraction.is_some(),
+                "cylinder-array",
+            ),
+            ("container", self.container.is_some(), "closed-tank"),
+        ] {
+            if set && self.case != case {
+                return Err(Error::config(
+                    key,
+                    &self.case,
+                    format!("belongs to case = \"{case}\" only"),
+                ));
+            }
+        }
         Ok(())
     }
 
@@ -417,6 +470,8 @@ impl Settings {
             sound_speed: c0,
             background_pressure: self.background_pressure * rho0 * c0 * c0,
             dt_factor: self.dt_factor,
+            wall_pressure: self.wall_pressure,
+            pressure_gradient: self.pressure_gradient,
         }
     }
 
