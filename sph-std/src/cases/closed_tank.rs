@@ -172,7 +172,7 @@ pub fn pressure_probes(record: &RunRecord) -> Option<Vec<(f64, f64, f64)>> {
     let frame = record.frames.last()?;
     let g = -record.body_force[1];
     let unit = record.rho0 * g * D;
-    if !(unit > 0.0) {
+    if unit.is_nan() || unit <= 0.0 {
         return None;
     }
     let hydro = |y: f64| record.rho0 * g * (D - y);
