@@ -67,7 +67,13 @@ pub fn drag(phi: f64) -> Option<f64> {
     }
     for w in t.windows(2) {
         let ((p0, k0), (p1, k1)) = (w[0], w[1]);
-        if phi <= p1 {
+        if phi == p0 {
+            return Some(k0);
+        }
+        if phi == p1 {
+            return Some(k1);
+        }
+        if phi < p1 {
             let s = (phi - p0) / (p1 - p0);
             return Some((k0.ln() * (1.0 - s) + k1.ln() * s).exp());
         }
