@@ -473,8 +473,8 @@ impl<S: Space> Term<S> for AnyContinuity {
         acc.plain += f.m[j] * p.v_ij.dot(p.grad);
         // (x_j - x_i) = -r_ij and (v_j - v_i) = -v_ij.
         let vol = f.m[j] / f.rho[j];
+        add_moment::<S>(&mut acc.m, p, vol);
         for a in 0..S::DIM {
-            acc.m[a] -= p.grad * (vol * p.r_ij[a]);
             acc.g[a] -= p.grad * (vol * p.v_ij[a]);
         }
     }
@@ -495,6 +495,16 @@ impl<S: Space> Term<S> for AnyContinuity {
             }
             None => r.plain,
         };
+    }
+}
+
+/// Adds neighbour `p`'s part of the moment matrix
+/// `M_ab = sum_j V_j (x_j - x_i)_a (grad_i W_ij)_b` (rows `a`; `x_j - x_i =
+/// -r_ij`), the matrix the corrected divergence and gradient invert.
+#[inline(always)]
+fn add_moment<S: Space>(m: &mut [S::Vector; 3], p: &Pair<S>, vol: S::Real) {
+    for (a, row) in m.iter_mut().enumerate().take(S::DIM) {
+        *row -= p.grad * (vol * p.r_ij[a]);
     }
 }
 
@@ -697,11 +707,8 @@ impl<S: Space> Term<S> for AnyPressure {
         let rho_j = f.rho[j];
         let coeff = f.m[j] * (d.p / (d.rho * d.rho) + f.p[j] / (rho_j * rho_j));
         acc.plain -= p.grad * coeff;
-        // (x_j - x_i) = -r_ij.
         let vol = f.m[j] / rho_j;
-        for a in 0..S::DIM {
-            acc.m[a] -= p.grad * (vol * p.r_ij[a]);
-        }
+        add_moment::<S>(&mut acc.m, p, vol);
         acc.g += p.grad * (vol * (f.p[j] - d.p));
     }
 
