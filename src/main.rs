@@ -12,7 +12,9 @@ use sph_std::config::{
 };
 use sph_std::error::Result;
 use sph_std::output::VtkEncoding;
-use sph_std::scene::{PressureForm, Regularise, RunControl, RunRecord, Stop, WallPressure};
+use sph_std::scene::{
+    EosForm, PressureForm, Regularise, RunControl, RunRecord, Stop, WallPressure,
+};
 use sph_std::{bench, checkpoint, couette, output, progress, report, studies};
 
 /// `println!` for results: a closed pipe on stdout ends the program quietly
@@ -198,6 +200,16 @@ struct RunArgs {
     /// on any arrangement; continuity density only).
     #[arg(long, value_name = "FORM", value_parser = parse_name::<PressureForm>)]
     pressure_gradient: Option<PressureForm>,
+    /// Equation of state: linear, or tait (gamma 7).
+    #[arg(long, value_name = "EOS", value_parser = parse_name::<EosForm>)]
+    eos: Option<EosForm>,
+    /// Artificial viscosity alpha: the coefficient of viscosity = artificial
+    /// (0: matched to re), or added to viscosity = morris.
+    #[arg(long, value_name = "A")]
+    alpha: Option<f64>,
+    /// Time over which gravity rises from zero (free-surface cases).
+    #[arg(long, value_name = "S")]
+    gravity_ramp: Option<f64>,
     /// Write VTK particle snapshots (.vtu and a .pvd index).
     #[arg(long)]
     vtk: bool,
@@ -263,8 +275,13 @@ impl RunArgs {
             density_diffusion,
             dt_factor,
             wall_pressure,
-            pressure_gradient
+            pressure_gradient,
+            eos,
+            alpha
         );
+        if let Some(ramp) = self.gravity_ramp {
+            s.gravity_ramp = Some(ramp);
+        }
         s.validate()?;
         Ok(s)
     }

@@ -272,6 +272,7 @@ fn scene_files_name_a_case_and_reject_unknown_keys() {
         "tilted-channel",
         "cylinder-array",
         "closed-tank",
+        "hydrostatic",
         "lid-driven-cavity",
     ] {
         let path = format!("{}/examples/{name}.toml", env!("CARGO_MANIFEST_DIR"));

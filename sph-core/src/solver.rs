@@ -1978,6 +1978,18 @@ where
         &self.domain
     }
 
+    /// Changes the gravity the wall ghosts' pressure balances
+    /// ([`Domain::with_wall_gravity`]) between steps: for a body force that
+    /// changes in time (a ramp), kept equal to the force term's.
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] if a component is not finite; the
+    /// solver is then unchanged.
+    pub fn set_wall_gravity(&mut self, g: S::Vector) -> Result<()> {
+        self.domain = self.domain.with_wall_gravity(g)?;
+        Ok(())
+    }
+
     /// The kernel bound to `h`.
     pub fn kernel(&self) -> &SmoothingKernel<S, K, M> {
         &self.kernel

@@ -1205,6 +1205,11 @@ pub enum AnyViscosity<F> {
     Pi(PiViscosity<F>),
     /// [`ArtificialViscosity`].
     Artificial(ArtificialViscosity<F>),
+    /// [`MorrisViscosity`] and [`ArtificialViscosity`] together: the
+    /// laminar term for the fluid's viscosity, the artificial one for the
+    /// shocks and splashes of free-surface flows (it acts on approaching
+    /// pairs only).
+    MorrisArtificial(MorrisViscosity<F>, ArtificialViscosity<F>),
 }
 
 impl<S: Space> Term<S> for AnyViscosity<S::Real> {
@@ -1214,6 +1219,10 @@ impl<S: Space> Term<S> for AnyViscosity<S::Real> {
             AnyViscosity::Morris(t) => <MorrisViscosity<S::Real> as Term<S>>::validate(t),
             AnyViscosity::Pi(t) => <PiViscosity<S::Real> as Term<S>>::validate(t),
             AnyViscosity::Artificial(t) => <ArtificialViscosity<S::Real> as Term<S>>::validate(t),
+            AnyViscosity::MorrisArtificial(m, a) => {
+                <MorrisViscosity<S::Real> as Term<S>>::validate(m)?;
+                <ArtificialViscosity<S::Real> as Term<S>>::validate(a)
+            }
         }
     }
     const NEEDS_F: bool = true;
@@ -1227,6 +1236,10 @@ impl<S: Space> Term<S> for AnyViscosity<S::Real> {
             AnyViscosity::Pi(t) => <PiViscosity<S::Real> as Term<S>>::pair(t, k, d, f, p, acc),
             AnyViscosity::Artificial(t) => {
                 <ArtificialViscosity<S::Real> as Term<S>>::pair(t, k, d, f, p, acc)
+            }
+            AnyViscosity::MorrisArtificial(m, a) => {
+                <MorrisViscosity<S::Real> as Term<S>>::pair(m, k, d, f, p, acc);
+                <ArtificialViscosity<S::Real> as Term<S>>::pair(a, k, d, f, p, acc);
             }
         }
     }
@@ -1246,6 +1259,10 @@ impl<S: Space> Term<S> for AnyViscosity<S::Real> {
             AnyViscosity::Pi(t) => <PiViscosity<S::Real> as Term<S>>::viscous(t, k, d, f, p, acc),
             AnyViscosity::Artificial(t) => {
                 <ArtificialViscosity<S::Real> as Term<S>>::viscous(t, k, d, f, p, acc)
+            }
+            AnyViscosity::MorrisArtificial(m, a) => {
+                <MorrisViscosity<S::Real> as Term<S>>::viscous(m, k, d, f, p, acc);
+                <ArtificialViscosity<S::Real> as Term<S>>::viscous(a, k, d, f, p, acc);
             }
         }
     }
@@ -1382,8 +1399,19 @@ impl<S: Space> Term<S> for Shifting<S::Real> {
 /// `V_j = m_j / rho_j`. Since `r_ij . grad W < 0` it diffuses density
 /// differences at the particle scale (the checkerboard noise continuity
 /// density accumulates) and vanishes for uniform density; `delta = 0.1` is
-/// the usual value. Without a hydrostatic correction it also diffuses a
-/// hydrostatic density gradient, so it is for flows without gravity.
+/// the usual value.
+///
+/// Alone it also diffuses a hydrostatic density gradient: under gravity
+/// `g` the density at rest grows with depth, and the term pulls it back
+/// towards uniform. [`Self::hydrostatic`] removes that part (Fourtakas,
+/// van Rijn, Rogers et al. 2019, to first order in the compression): the
+/// difference diffused is `(rho_i - rho_j) - G . r_ij`, with
+/// `G = rho0 g / c0^2` the density gradient of the fluid at rest, so the
+/// hydrostatic state is left alone and only the deviation from it
+/// diffuses. With `G = 0` (the default) the arithmetic is the plain term's.
+/// For the Tait equation `G` uses the sound speed at `rho0`, which differs
+/// from the local one by a fraction `(gamma - 1) (rho / rho0 - 1)` (a few
+/// per cent of a small correction at 1 % compression).
 ///
 /// ```
 /// # use sph_core::prelude::*;
@@ -1408,29 +1436,61 @@ impl<S: Space> Term<S> for Shifting<S::Real> {
 /// # };
 /// // Density flows from the denser particle 1 to particle 0, and the
 /// // volume-weighted rates cancel: mass density is only moved.
-/// let t = DensityDiffusion { delta: 0.1 };
-/// let a0 = one(&|d, q, a| Term::<D2<f64>>::pair(&t, &k, d, &f, q, a), 0, 1);
-/// let a1 = one(&|d, q, a| Term::<D2<f64>>::pair(&t, &k, d, &f, q, a), 1, 0);
+/// let t = DensityDiffusion::<D2<f64>>::new(0.1);
+/// let a0 = one(&|d, q, a| t.pair(&k, d, &f, q, a), 0, 1);
+/// let a1 = one(&|d, q, a| t.pair(&k, d, &f, q, a), 1, 0);
 /// assert!(a0.drho > 0.0 && a1.drho < 0.0);
 /// let moved = a0.drho * m[0] / rho[0] + a1.drho * m[1] / rho[1];
 /// assert!(moved.abs() < 1e-12 * a0.drho.abs());
+/// // With the hydrostatic correction a density difference that matches
+/// // the gradient G along r_ij (here 0.02 over 0.1 along +x) is left alone.
+/// let at_rest = t.hydrostatic(Vector::new([0.2, 0.0]));
+/// let a0 = one(&|d, q, a| at_rest.pair(&k, d, &f, q, a), 0, 1);
+/// assert!(a0.drho.abs() < 1e-12);
+/// assert!(at_rest.hydrostatic(Vector::new([f64::NAN, 0.0])).validate().is_err());
 /// ```
 #[derive(Clone, Copy, Debug)]
-pub struct DensityDiffusion<F> {
+pub struct DensityDiffusion<S: Space> {
     /// The coefficient `delta`.
-    pub delta: F,
+    pub delta: S::Real,
+    /// The hydrostatic density gradient `G = rho0 g / c0^2` left alone
+    /// (zero: none; see the type's docs).
+    pub gradient: S::Vector,
 }
 
-impl<S: Space> Term<S> for DensityDiffusion<S::Real> {
+impl<S: Space> DensityDiffusion<S> {
+    /// The plain term with coefficient `delta`.
+    pub fn new(delta: S::Real) -> Self {
+        Self {
+            delta,
+            gradient: S::Vector::zero(),
+        }
+    }
+
+    /// The same term leaving the hydrostatic density gradient `gradient`
+    /// (`rho0 g / c0^2`) alone.
+    pub fn hydrostatic(mut self, gradient: S::Vector) -> Self {
+        self.gradient = gradient;
+        self
+    }
+}
+
+impl<S: Space> Term<S> for DensityDiffusion<S> {
     type Scratch = ();
     fn validate(&self) -> Result<()> {
-        non_negative("delta", self.delta)
+        non_negative("delta", self.delta)?;
+        for a in 0..S::DIM {
+            finite("gradient", self.gradient[a])?;
+        }
+        Ok(())
     }
     const NEEDS_F: bool = true;
     #[inline(always)]
     fn pair(&self, k: &Consts<S>, d: &Dest<S>, f: &Fields<'_, S>, p: &Pair<S>, acc: &mut Acc<S>) {
         let j = p.j;
         let coeff = S::Real::TWO * self.delta * k.h * k.c0 * f.m[j] / f.rho[j];
-        acc.drho += coeff * (d.rho - f.rho[j]) * p.r_ij.dot(p.grad) / regularised(p.r2, k.eta2);
+        // `x - 0` is `x`: without a gradient the plain term's bits.
+        let difference = (d.rho - f.rho[j]) - self.gradient.dot(p.r_ij);
+        acc.drho += coeff * difference * p.r_ij.dot(p.grad) / regularised(p.r2, k.eta2);
     }
 }

@@ -17,7 +17,7 @@ type Forces = (
     PressureGradient,
     AnyViscosity<f64>,
     BodyForce<D2<f64>>,
-    DensityDiffusion<f64>,
+    DensityDiffusion<D2<f64>>,
 );
 type Channel<'a> = Solver<'a, D2<f64>, CubicSpline, Libm, (), ((AnyContinuity,), Forces)>;
 
@@ -39,7 +39,7 @@ fn forces(visc: AnyViscosity<f64>, g: [f64; 2], delta: f64) -> ((AnyContinuity,)
             PressureGradient,
             visc,
             BodyForce { g: V2::new(g) },
-            DensityDiffusion { delta },
+            DensityDiffusion::new(delta),
         ),
     )
 }

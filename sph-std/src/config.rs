@@ -141,6 +141,18 @@ named_enum!(
 );
 
 named_enum!(
+    /// The equation of state of the scenes (`sph_core::eos::Eos`).
+    EosForm {
+        /// `p = c0^2 (rho - rho0) + p_b`: the channel and vortex flows.
+        Linear => "linear",
+        /// Tait, `p = B ((rho / rho0)^7 - 1) + p_b`, `B = rho0 c0^2 / 7`:
+        /// stiff in compression, soft in tension, the usual choice for
+        /// free-surface water.
+        Tait => "tait",
+    }
+);
+
+named_enum!(
     /// Floating-point precision of the whole computation.
     Precision {
         /// Single precision.

@@ -26,8 +26,8 @@ use crate::checkpoint::Checkpoint;
 use crate::config::{CouetteConfig, KernelName, ViscosityForm};
 use crate::error::{Error, Result};
 use crate::scene::{
-    AxisSpec, Monitor, Physics, PressureForm, Region, Regularise, Scene, Stop, WallPressure,
-    WallSpec,
+    AxisSpec, EosForm, Monitor, Physics, PressureForm, Region, Regularise, Scene, Stop,
+    WallPressure, WallSpec,
 };
 
 /// Verlet skin of the neighbour lists (fraction of the support radius).
@@ -298,6 +298,8 @@ pub fn scene(cfg: &CouetteConfig) -> Scene {
             shift_coefficient: 0.0,
             density_diffusion: 0.0,
             alpha: geo.alpha,
+            eos: EosForm::Linear,
+            gravity_ramp: 0.0,
             sound_speed: geo.c0,
             background_pressure: cfg.background_pressure * cfg.rho0 * geo.c0 * geo.c0,
             dt_factor: cfg.dt_factor,

@@ -33,7 +33,7 @@ use sph_core::space::{Space, VectorOps};
 
 use crate::checkpoint::Checkpoint;
 use crate::config::{DensityMode, KernelName, MathBackend, Precision, ViscosityForm};
-pub use crate::config::{PressureForm, WallPressure};
+pub use crate::config::{EosForm, PressureForm, WallPressure};
 use crate::couette::{Progress, SKIN};
 use crate::driver::{Buffers, Rayon};
 use crate::error::{Error, Result};
@@ -172,8 +172,15 @@ pub struct Physics {
     pub shift_coefficient: f64,
     /// Density diffusion `delta` (continuity and corrected density; 0: off).
     pub density_diffusion: f64,
-    /// Artificial-viscosity coefficient (used with `viscosity = artificial`).
+    /// Artificial-viscosity coefficient: with `viscosity = artificial` the
+    /// coefficient of that form (0: matched to `nu`); with `morris`, an
+    /// artificial viscosity added to the laminar term (0: none).
     pub alpha: f64,
+    /// The equation of state.
+    pub eos: EosForm,
+    /// Time over which the body force rises from zero,
+    /// `g(t) = g (1 - cos(pi t / T)) / 2` for `t < T` (0: on from the start).
+    pub gravity_ramp: f64,
     /// Reference sound speed `c0` in m/s.
     pub sound_speed: f64,
     /// Background pressure in Pa.
@@ -559,6 +566,16 @@ fn ghost_slab(kappa: f64, beta: f64) -> f64 {
     (kappa * beta * (1.0 + SKIN)).ceil() + 2.0
 }
 
+/// The fraction of the body force on at time `t` with a ramp over `ramp`
+/// (0: none): `(1 - cos(pi t / T)) / 2`, smooth at both ends.
+pub fn ramp_factor(t: f64, ramp: f64) -> f64 {
+    if t >= ramp {
+        1.0
+    } else {
+        0.5 * (1.0 - (std::f64::consts::PI * t / ramp).cos())
+    }
+}
+
 fn estimate_particles(scene: &Scene) -> usize {
     let mut n = 1.0;
     for a in 0..scene.dim {
@@ -613,6 +630,13 @@ where
     let mut run =
         |visc: AnyViscosity<S::Real>| by_regularisation::<S, K, M, E, _>(scene, exec, ctl, visc);
     match scene.physics.viscosity {
+        ViscosityForm::Morris if scene.physics.alpha > 0.0 => run(AnyViscosity::MorrisArtificial(
+            MorrisViscosity { mu },
+            ArtificialViscosity {
+                alpha: S::Real::from_f64(scene.physics.alpha),
+                beta: S::Real::ZERO,
+            },
+        )),
         ViscosityForm::Morris => run(AnyViscosity::Morris(MorrisViscosity { mu })),
         ViscosityForm::Pi => run(AnyViscosity::Pi(PiViscosity { mu })),
         ViscosityForm::Artificial => {
@@ -658,9 +682,10 @@ where
 {
     let f = S::Real::from_f64;
     let h = scene.physics.beta * scene.dx;
-    let g = BodyForce::<S> {
-        g: S::Vector::from_fn(|a| f(scene.body_force[a])),
-    };
+    // At the start of a ramp the body force is off (`ramp_factor`).
+    let k0 = ramp_factor(0.0, scene.physics.gravity_ramp);
+    let g0 = S::Vector::from_fn(|a| f(scene.body_force[a]));
+    let g = BodyForce::<S> { g: g0 * f(k0) };
     let kernel = SmoothingKernel::<S, K, M>::new(f(h))?;
     let w_dx = kernel.w(f(scene.dx * scene.dx));
     let shift = Shifting::new(
@@ -669,10 +694,18 @@ where
         f(h),
         w_dx,
     );
-    // Continuity density always carries delta-SPH diffusion (zero by default).
-    let diffusion = DensityDiffusion {
-        delta: f(scene.physics.density_diffusion),
+    // Continuity density always carries delta-SPH diffusion (zero by
+    // default), leaving alone the hydrostatic density gradient of the body
+    // force's part along bounded axes (along a periodic axis the pressure is
+    // periodic and balances none of it: a channel's driving force).
+    let c0 = scene.physics.sound_speed;
+    let balanced = |a: usize| match scene.axes[a] {
+        AxisSpec::Periodic => 0.0,
+        AxisSpec::Walls(..) => scene.rho0 * scene.body_force[a] / (c0 * c0),
     };
+    let gradient0 = S::Vector::from_fn(|a| f(balanced(a)));
+    let diffusion = DensityDiffusion::<S>::new(f(scene.physics.density_diffusion))
+        .hydrostatic(gradient0 * f(k0));
     // With continuity density the pressure gradient is chosen at run time
     // (summation density keeps the symmetric form, validated up front).
     let pressure = match scene.physics.pressure_gradient {
@@ -686,24 +719,39 @@ where
     let retune = move |shift: &mut Shifting<S::Real>, vmax: f64| {
         shift.scale = S::Real::from_f64(c_h * vmax.max(floor));
     };
+    // A ramped body force: the force term and the diffusion's hydrostatic
+    // gradient scaled together (the walls' gravity follows in `simulate`).
+    let ramp = |body: &mut BodyForce<S>, k: S::Real| body.g = g0 * k;
+    let ramp_both = move |body: &mut BodyForce<S>, d: &mut DensityDiffusion<S>, k: S::Real| {
+        body.g = g0 * k;
+        d.gradient = gradient0 * k;
+    };
     match (scene.physics.density, scene.physics.regularise) {
-        (DensityMode::Summation, Regularise::None) => {
-            ctx.simulate::<S, K, M, _, _>(SummationDensity, (PressureGradient, visc, g), |_, _| {})
-        }
+        (DensityMode::Summation, Regularise::None) => ctx.simulate::<S, K, M, _, _>(
+            SummationDensity,
+            (PressureGradient, visc, g),
+            |t, _, k| ramp(&mut t.2, k),
+        ),
         (DensityMode::Summation, Regularise::Shifting) => ctx.simulate::<S, K, M, _, _>(
             SummationDensity,
             (PressureGradient, visc, g, shift),
-            |t, v| retune(&mut t.3, v),
+            |t, v, k| {
+                ramp(&mut t.2, k);
+                retune(&mut t.3, v);
+            },
         ),
         (continuity, Regularise::None) => ctx.simulate::<S, K, M, _, _>(
             (),
             ((by_form(continuity), diffusion), pressure, visc, g),
-            |_, _| {},
+            |t, _, k| ramp_both(&mut t.3, &mut t.0 .1, k),
         ),
         (continuity, Regularise::Shifting) => ctx.simulate::<S, K, M, _, _>(
             (),
             ((by_form(continuity), diffusion), pressure, visc, g, shift),
-            |t, v| retune(&mut t.4, v),
+            |t, v, k| {
+                ramp_both(&mut t.3, &mut t.0 .1, k);
+                retune(&mut t.4, v);
+            },
         ),
     }
 }
@@ -783,7 +831,9 @@ impl<E: Executor> Context<'_, '_, E> {
             domain = domain.with_shaped_wall(w.translated(to_local))?;
         }
         if s.physics.wall_pressure == WallPressure::Hydrostatic && s.body_force != [0.0; 3] {
-            domain = domain.with_wall_gravity(S::Vector::from_fn(|a| f(s.body_force[a])))?;
+            // At the start of a ramp the body force is off.
+            let k = ramp_factor(0.0, s.physics.gravity_ramp);
+            domain = domain.with_wall_gravity(S::Vector::from_fn(|a| f(s.body_force[a] * k)))?;
         }
         Ok(domain)
     }
@@ -792,7 +842,7 @@ impl<E: Executor> Context<'_, '_, E> {
         &mut self,
         density: D,
         forces: T,
-        retune: impl Fn(&mut T, f64),
+        retune: impl Fn(&mut T, f64, S::Real),
     ) -> Result<RunRecord>
     where
         S: Space,
@@ -805,6 +855,9 @@ impl<E: Executor> Context<'_, '_, E> {
         let exec = self.exec;
         let f = S::Real::from_f64;
         let domain = self.domain::<S>()?;
+        // A ramped body force: the walls' gravity follows it every step.
+        let ramped_walls = s.physics.gravity_ramp > 0.0 && domain.wall_gravity().is_some();
+        let body_force = S::Vector::from_fn(|a| f(s.body_force[a]));
         self.check_memory::<S, K>()?;
         let points = lattice(s);
         let n = points.len();
@@ -844,10 +897,18 @@ impl<E: Executor> Context<'_, '_, E> {
         let continuity = D::EMPTY;
         let c0 = s.physics.sound_speed;
         let pb = s.physics.background_pressure;
-        let eos = Eos::Linear {
-            rho0: f(s.rho0),
-            c0: f(c0),
-            p0: f(pb),
+        let eos = match s.physics.eos {
+            EosForm::Linear => Eos::Linear {
+                rho0: f(s.rho0),
+                c0: f(c0),
+                p0: f(pb),
+            },
+            EosForm::Tait => Eos::Tait {
+                rho0: f(s.rho0),
+                c0: f(c0),
+                gamma: f(7.0),
+                p0: f(pb),
+            },
         };
         let cell_volume = s.dx.powi(S::DIM as i32);
         for (k, p) in points.iter().enumerate() {
@@ -857,9 +918,12 @@ impl<E: Executor> Context<'_, '_, E> {
             buffers.v[k] = S::Vector::from_fn(|a| f(v[a]));
             buffers.m[k] = f(s.rho0 * cell_volume);
             // Continuity density starts from the initial pressure (inverse
-            // of the linear equation of state); summation ignores it.
+            // of the equation of state); summation ignores it.
             let p0 = s.pressure.as_ref().map_or(0.0, |field| field(*p));
-            buffers.rho[k] = f(s.rho0 + p0 / (c0 * c0));
+            buffers.rho[k] = match s.physics.eos {
+                EosForm::Linear => f(s.rho0 + p0 / (c0 * c0)),
+                EosForm::Tait => eos.density::<M>(f(pb + p0), f(s.rho0)),
+            };
         }
         let storage_bytes = buffers.bytes();
         let params = Params::new(f(h), eos)
@@ -1023,7 +1087,11 @@ impl<E: Executor> Context<'_, '_, E> {
                     break 'outputs;
                 }
                 let vmax = solver.max_speed();
-                retune(solver.forces_mut(), vmax);
+                let on = f(ramp_factor(solver.time(), s.physics.gravity_ramp));
+                retune(solver.forces_mut(), vmax, on);
+                if ramped_walls {
+                    solver.set_wall_gravity(body_force * on)?;
+                }
                 if let Err(e) = solver.step_with(exec, dt) {
                     let particle = match e {
                         sph_core::error::Error::Unstable { particle, .. } => Some(particle),

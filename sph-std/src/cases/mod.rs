@@ -23,13 +23,16 @@ use serde::{Deserialize, Serialize};
 use crate::config::{check, DensityMode, KernelName, MathBackend, Precision, ViscosityForm};
 use crate::error::{Error, Result};
 use crate::plot::{line_plot, Axes, Series};
-use crate::scene::{Monitor, Physics, PressureForm, Regularise, RunRecord, Scene, WallPressure};
+use crate::scene::{
+    EosForm, Monitor, Physics, PressureForm, Regularise, RunRecord, Scene, WallPressure,
+};
 
 mod cavity;
 mod closed_tank;
 mod couette;
 pub mod custom;
 mod cylinder_array;
+mod hydrostatic;
 mod poiseuille;
 mod taylor_couette;
 mod taylor_green;
@@ -39,6 +42,9 @@ pub use cavity::{compare_ghia, ghia, shepard_velocity, Comparison, GhiaRow};
 pub use closed_tank::{pressure_probes as closed_tank_pressure_probes, Container};
 pub use cylinder_array::{
     drag as cylinder_array_drag, measured_drag as cylinder_array_measured_drag,
+};
+pub use hydrostatic::{
+    exact_pressure as hydrostatic_exact_pressure, pressure_probes as hydrostatic_pressure_probes,
 };
 pub use taylor_couette::{spin_up as taylor_couette_spin_up, steady as taylor_couette_steady};
 pub use taylor_green::velocity as taylor_green_velocity;
@@ -104,6 +110,7 @@ pub const CASES: &[Case] = &[
     tilted_channel::CASE,
     cylinder_array::CASE,
     closed_tank::CASE,
+    hydrostatic::CASE,
     cavity::CASE,
     custom::CASE,
 ];
@@ -114,6 +121,10 @@ fn hydrostatic() -> WallPressure {
 
 fn symmetric() -> PressureForm {
     PressureForm::Symmetric
+}
+
+fn linear() -> EosForm {
+    EosForm::Linear
 }
 
 /// The case called `name`.
@@ -184,6 +195,14 @@ pub struct Settings {
     /// continuity density only).
     #[serde(default = "symmetric")]
     pub pressure_gradient: PressureForm,
+    /// The equation of state: `linear` or `tait` (`gamma = 7`).
+    #[serde(default = "linear")]
+    pub eos: EosForm,
+    /// Artificial viscosity `alpha`: with `viscosity = "artificial"` its
+    /// coefficient (0: matched to `re`); with `"morris"` added to the
+    /// laminar term (0: none).
+    #[serde(default)]
+    pub alpha: f64,
     /// Worker threads (0: all cores).
     pub threads: usize,
     /// Monitor: smallest closest-pair distance, in `dx`.
@@ -195,6 +214,10 @@ pub struct Settings {
     /// Area fraction of the solid: `case = "cylinder-array"` only.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub solid_fraction: Option<f64>,
+    /// Time over which gravity rises from zero, in the case's time unit:
+    /// the free-surface cases only.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gravity_ramp: Option<f64>,
     /// The container: `case = "closed-tank"` only.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub container: Option<Container>,
@@ -231,11 +254,14 @@ impl Settings {
             background_pressure: 0.0,
             wall_pressure: WallPressure::Hydrostatic,
             pressure_gradient: PressureForm::Symmetric,
+            eos: EosForm::Linear,
+            alpha: 0.0,
             threads: 0,
             monitor_min_spacing: m.min_spacing,
             monitor_max_density_deviation: m.max_density_deviation,
             monitor_max_mach: m.max_mach,
             solid_fraction: None,
+            gravity_ramp: None,
             container: None,
             scene: None,
         }
@@ -416,6 +442,35 @@ impl Settings {
                 "micromath implements f32 only: use precision = \"f32\"",
             ));
         }
+        check(
+            self.alpha.is_finite() && (0.0..=10.0).contains(&self.alpha),
+            "alpha",
+            self.alpha,
+            "must be between 0 and 10",
+        )?;
+        if self.alpha > 0.0
+            && !matches!(
+                self.viscosity,
+                ViscosityForm::Morris | ViscosityForm::Artificial
+            )
+        {
+            return Err(Error::config(
+                "alpha",
+                self.alpha,
+                format!(
+                    "an artificial viscosity is added to viscosity = \"morris\" only, not to \"{}\"",
+                    self.viscosity
+                ),
+            ));
+        }
+        if let Some(ramp) = self.gravity_ramp {
+            check(
+                ramp.is_finite() && ramp >= 0.0,
+                "gravity_ramp",
+                ramp,
+                "must be finite and at least 0 (0: no ramp)",
+            )?;
+        }
         if self.pressure_gradient == PressureForm::Corrected
             && self.density == DensityMode::Summation
         {
@@ -432,6 +487,7 @@ impl Settings {
                 "cylinder-array",
             ),
             ("container", self.container.is_some(), "closed-tank"),
+            ("gravity_ramp", self.gravity_ramp.is_some(), "hydrostatic"),
         ] {
             if set && self.case != case {
                 return Err(Error::config(
@@ -466,7 +522,9 @@ impl Settings {
             regularise: self.regularise,
             shift_coefficient: self.shift_coefficient,
             density_diffusion: self.density_diffusion,
-            alpha: 0.0,
+            alpha: self.alpha,
+            eos: self.eos,
+            gravity_ramp: self.gravity_ramp.unwrap_or(0.0),
             sound_speed: c0,
             background_pressure: self.background_pressure * rho0 * c0 * c0,
             dt_factor: self.dt_factor,
@@ -578,4 +636,63 @@ pub(crate) fn channel_figure(scene: &Scene, record: &RunRecord) -> Result<Vec<u8
         },
         &series,
     )
+}
+
+/// A field's value at `point` from the particles of `frame` within
+/// `radius` of it: the least-squares plane `a + b . (x - point)` through
+/// their values (`value` picks the field), evaluated at the point. Exact
+/// for a linear field whichever particles the radius happens to include,
+/// where a plain mean is biased by an uneven inclusion (a lattice that has
+/// settled by a fraction of `dx` gains or loses a row on one side). `None`
+/// with fewer particles than the plane needs or a degenerate arrangement.
+pub fn probe_linear(
+    frame: &crate::scene::Frame,
+    dim: usize,
+    point: [f64; 3],
+    radius: f64,
+    value: impl Fn(usize) -> f64,
+) -> Option<f64> {
+    let n = dim + 1;
+    // Normal equations of the fit, unknowns (a, b_0 .. b_dim).
+    let mut m = [[0.0f64; 5]; 4];
+    let mut count = 0;
+    for (k, x) in frame.x.iter().enumerate() {
+        let d: Vec<f64> = (0..dim).map(|a| x[a] - point[a]).collect();
+        if d.iter().map(|c| c * c).sum::<f64>().sqrt() > radius {
+            continue;
+        }
+        count += 1;
+        let basis: Vec<f64> = std::iter::once(1.0).chain(d).collect();
+        let v = value(k);
+        for r in 0..n {
+            for c in 0..n {
+                m[r][c] += basis[r] * basis[c];
+            }
+            m[r][n] += basis[r] * v;
+        }
+    }
+    if count < n + 1 {
+        return None;
+    }
+    // Gaussian elimination with partial pivoting on the (n x n+1) system.
+    for col in 0..n {
+        let pivot = (col..n).max_by(|&a, &b| m[a][col].abs().total_cmp(&m[b][col].abs()))?;
+        m.swap(col, pivot);
+        if m[col][col].abs() < 1e-12 * m[0][0] {
+            return None;
+        }
+        let pivot_row = m[col];
+        for row in m.iter_mut().take(n).skip(col + 1) {
+            let factor = row[col] / pivot_row[col];
+            for (x, p) in row.iter_mut().zip(pivot_row.iter()).take(n + 1).skip(col) {
+                *x -= factor * p;
+            }
+        }
+    }
+    let mut x = [0.0f64; 4];
+    for r in (0..n).rev() {
+        let tail: f64 = (r + 1..n).map(|c| m[r][c] * x[c]).sum();
+        x[r] = (m[r][n] - tail) / m[r][r];
+    }
+    x[0].is_finite().then_some(x[0])
 }
