@@ -207,6 +207,10 @@ struct RunArgs {
     /// (0: matched to re), or added to viscosity = morris.
     #[arg(long, value_name = "A")]
     alpha: Option<f64>,
+    /// No tension: continuity density bounded below by rho0, so the
+    /// pressure by the background pressure (free surfaces).
+    #[arg(long, value_name = "BOOL")]
+    tension_cutoff: Option<bool>,
     /// Time over which gravity rises from zero (free-surface cases).
     #[arg(long, value_name = "S")]
     gravity_ramp: Option<f64>,
@@ -277,7 +281,8 @@ impl RunArgs {
             wall_pressure,
             pressure_gradient,
             eos,
-            alpha
+            alpha,
+            tension_cutoff
         );
         if let Some(ramp) = self.gravity_ramp {
             s.gravity_ramp = Some(ramp);

@@ -242,3 +242,55 @@ fn a_linear_probe_is_exact_for_a_linear_field_on_any_arrangement() {
         assert!(cases::probe_linear(&frame, dim, [5.0, 5.0, 5.0], dx, |k| p[k]).is_none());
     }
 }
+
+#[test]
+fn the_tension_cutoff_keeps_continuity_density_at_or_above_rho0() {
+    // The Taylor-Green vortex's density swings both ways about rho0 (its
+    // pressure field is negative at the vortex centres). With the cutoff
+    // no particle's density goes below rho0 at any output; without it
+    // some do. A tank at rest keeps its bounds with the cutoff (the floor
+    // only binds where the fluid would stretch).
+    let mut s = Settings::from_toml("case = \"taylor-green\"\nresolution = 16\n").unwrap();
+    s.threads = 2;
+    s.t_end = 0.2;
+    s.output_interval = 0.05;
+    let lowest = |s: &Settings| {
+        let r = run(s);
+        r.frames
+            .iter()
+            .flat_map(|f| f.rho.iter().copied())
+            .fold(f64::INFINITY, f64::min)
+    };
+    assert!(lowest(&s) < 1.0);
+    s.tension_cutoff = true;
+    assert!(lowest(&s) >= 1.0);
+    let s = hydrostatic("resolution = 20\ntension_cutoff = true\n");
+    let r = run(&s);
+    assert_at_rest("2D, 20, tension cutoff", &s, &r);
+}
+
+#[test]
+fn a_log_plot_of_values_spanning_hundreds_of_decades_returns() {
+    // A ratio to a near-zero normaliser once reached 1e305: plotters'
+    // logarithmic axis did not return from such a range (the CLI hung
+    // after the run). The range is now held to 30 decades.
+    use sph_std::plot::{line_plot, Axes, Series};
+    let png = line_plot(
+        &Axes {
+            title: "wide".into(),
+            x: "t".into(),
+            y: "value".into(),
+            log_x: false,
+            log_y: true,
+        },
+        &[Series {
+            label: "wide".into(),
+            points: vec![(0.0, 1e-300), (1.0, 0.5), (2.0, 1e305)],
+            color: 0,
+            line: true,
+            markers: true,
+        }],
+    )
+    .unwrap();
+    assert!(png.starts_with(&[0x89, b'P', b'N', b'G']));
+}

@@ -51,6 +51,10 @@ pub trait Real:
     const MAX: Self;
     /// Smallest positive normal value.
     const MIN_POSITIVE: Self;
+    /// Positive infinity.
+    const INFINITY: Self;
+    /// Negative infinity.
+    const NEG_INFINITY: Self;
     /// `"f32"` or `"f64"`.
     const NAME: &'static str;
     /// The math backend a scene gets when it names none: [`crate::math::Libm`],
@@ -101,6 +105,8 @@ macro_rules! impl_real {
             const EPSILON: Self = <$t>::EPSILON;
             const MAX: Self = <$t>::MAX;
             const MIN_POSITIVE: Self = <$t>::MIN_POSITIVE;
+            const INFINITY: Self = <$t>::INFINITY;
+            const NEG_INFINITY: Self = <$t>::NEG_INFINITY;
             const NAME: &'static str = $name;
             type DefaultMath = $default_math;
 

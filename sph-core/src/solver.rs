@@ -202,6 +202,18 @@ pub struct Params<F> {
     /// Verlet skin as a fraction of the support radius (neighbour lists
     /// only; see the module docs).
     pub skin: F,
+    /// The smallest density continuity density may reach (negative
+    /// infinity: none). At a free surface the weakly compressible fluid
+    /// stretches where a liquid would not (a thinning front, a falling
+    /// sheet): its density falls below `rho0` and the equation of state
+    /// answers with tension, which pulls the surface particles into pairs
+    /// (the tensile instability). A floor at `rho0` cuts that off: a
+    /// liquid without air separates rather than expands, so the pressure
+    /// stays at or above the background pressure, and a particle that
+    /// meets a wall or another after flying apart is repelled at once,
+    /// not after making up the expansion first. Masses are unchanged;
+    /// with summation density the floor does nothing.
+    pub density_floor: F,
 }
 
 impl<F: Real> Params<F> {
@@ -227,6 +239,24 @@ impl<F: Real> Params<F> {
             viscous_iterations: 60,
             reorder_every: 0,
             skin: F::from_f64(0.1),
+            density_floor: F::NEG_INFINITY,
+        }
+    }
+
+    /// Bounds continuity density below (see the field).
+    pub fn with_density_floor(mut self, floor: F) -> Self {
+        self.density_floor = floor;
+        self
+    }
+
+    /// `rho` bounded below by the density floor; a NaN stays NaN for the
+    /// divergence checks to see.
+    #[inline(always)]
+    pub fn floored(&self, rho: F) -> F {
+        if rho < self.density_floor {
+            self.density_floor
+        } else {
+            rho
         }
     }
 
@@ -274,6 +304,13 @@ impl<F: Real> Params<F> {
                 name: "viscous_iterations",
                 value: self.viscous_iterations as f64,
                 rule: "between 1 and 1000 power iterations (60 are plenty: the estimate converges geometrically)",
+            });
+        }
+        if !(self.density_floor.is_finite() || self.density_floor == F::NEG_INFINITY) {
+            return Err(Error::InvalidParameter {
+                name: "density_floor",
+                value: self.density_floor.to_f64(),
+                rule: "the density floor must be finite or negative infinity (none)",
             });
         }
         if !(self.max_speed.is_finite() && self.max_speed >= F::ZERO) {
@@ -1640,6 +1677,7 @@ where
         let domain = self.domain;
         // With Verlet lists, positions are wrapped at rebuilds only.
         let wrap = !cfg!(feature = "neighbour-lists") || self.list_width == 0;
+        let floor = self.params;
         let Max2(drift2, _) = {
             let Arrays {
                 x,
@@ -1695,9 +1733,9 @@ where
                         }
                         x[k] = xn;
                         if !summation {
-                            let rh = rho[k] + drho[i] * half;
+                            let rh = floor.floored(rho[k] + drho[i] * half);
                             rho_aux[k] = rh;
-                            rho[k] = rh + drho[i] * half;
+                            rho[k] = floor.floored(rh + drho[i] * half);
                             if !(rho[k] > S::Real::ZERO) {
                                 return Err(unstable(
                                     step,
@@ -1719,7 +1757,8 @@ where
         }
         self.domain.set_wall_time(self.time + dt);
         self.evaluate(exec)?;
-        let eos = self.params.eos;
+        let params = self.params;
+        let eos = params.eos;
         let limit2 = self.speed_limit2;
         let Max2(vmax2, amax2) = {
             let Arrays {
@@ -1757,7 +1796,7 @@ where
                             ));
                         }
                         if !summation {
-                            rho[k] = rho_aux[i] + drho[i] * half;
+                            rho[k] = params.floored(rho_aux[i] + drho[i] * half);
                             p[k] = eos.pressure::<M>(rho[k]);
                         }
                         if !(rho[k] > S::Real::ZERO && rho[k].is_finite()) {

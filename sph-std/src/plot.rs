@@ -398,6 +398,10 @@ fn range(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
         return (1.0, 10.0);
     }
     if log {
+        // At most 30 decades: plotters' logarithmic axis does not return
+        // from a range of hundreds of decades (a ratio to a near-zero
+        // normaliser), and no plot reads anything there.
+        let lo = lo.max(hi * 1e-30);
         (lo / 1.5, hi * 1.5)
     } else {
         // A single value (one output time) gets a range around it.

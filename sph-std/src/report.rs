@@ -153,12 +153,15 @@ pub fn particles_csv(record: &RunRecord) -> String {
 /// If drawing fails.
 pub fn diagnostics_png(record: &RunRecord) -> Result<Vec<u8>> {
     let o = &record.outputs;
+    // The first output with motion: a flow started from rest (dam-break,
+    // whose first output is t = 0) has none at its first.
     let e0 = o
-        .first()
-        .map_or(1.0, |d| d.kinetic_energy_exact.unwrap_or(d.kinetic_energy))
-        .max(f64::MIN_POSITIVE);
+        .iter()
+        .map(|d| d.kinetic_energy_exact.unwrap_or(d.kinetic_energy))
+        .find(|&e| e > 0.0 && e.is_finite())
+        .unwrap_or(1.0);
     let mut series = vec![Series {
-        label: "kinetic energy / E(first output)".into(),
+        label: "kinetic energy / E(first output in motion)".into(),
         points: o.iter().map(|d| (d.t, d.kinetic_energy / e0)).collect(),
         color: 0,
         line: true,

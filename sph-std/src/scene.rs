@@ -178,6 +178,9 @@ pub struct Physics {
     pub alpha: f64,
     /// The equation of state.
     pub eos: EosForm,
+    /// No tension: continuity density bounded below by `rho0`, so the
+    /// pressure by the background pressure (`sph_core::solver::Params::density_floor`).
+    pub tension_cutoff: bool,
     /// Time over which the body force rises from zero,
     /// `g(t) = g (1 - cos(pi t / T)) / 2` for `t < T` (0: on from the start).
     pub gravity_ramp: f64,
@@ -926,9 +929,12 @@ impl<E: Executor> Context<'_, '_, E> {
             };
         }
         let storage_bytes = buffers.bytes();
-        let params = Params::new(f(h), eos)
+        let mut params = Params::new(f(h), eos)
             .with_eta2(f(s.physics.eta2))
             .with_skin(f(SKIN));
+        if s.physics.tension_cutoff {
+            params = params.with_density_floor(f(s.rho0));
+        }
         let resume = self.ctl.resume;
         let (mut solver, limits, dt_max) = if let Some(ck) = resume {
             if ck.case != s.case || ck.dim != S::DIM || ck.n_fluid != n {

@@ -42,7 +42,7 @@ use std::sync::Arc;
 use serde::{Deserialize, Serialize};
 use sph_core::prelude::{Shape, ShapedWall};
 
-use super::{Case, Reference, ReferencePoint, Settings};
+use super::{Case, Reference, Settings};
 use crate::error::Result;
 use crate::scene::{AxisSpec, Region, RunRecord, Scene, WallSpec};
 
@@ -204,24 +204,12 @@ pub fn pressure_probes(record: &RunRecord) -> Option<Vec<(f64, f64, f64)>> {
 }
 
 fn reference(record: &RunRecord) -> Option<Reference> {
-    let probes = pressure_probes(record)?;
-    Some(Reference {
-        source: "hydrostatics: p = rho0 g (D - y) + const".into(),
-        t: record.frames.last()?.t,
-        max_deviation: probes
-            .iter()
-            .map(|(_, sph, exact)| (sph - exact).abs())
-            .fold(0.0, f64::max),
-        points: probes
-            .into_iter()
-            .map(|(depth, sph, exact)| ReferencePoint {
-                quantity: "p/(rho0 g D) at depth/D",
-                at: depth,
-                reference: exact,
-                sph,
-            })
-            .collect(),
-    })
+    Some(super::probes_reference(
+        "hydrostatics: p = rho0 g (D - y) + const",
+        "p/(rho0 g D) at depth/D",
+        record.frames.last()?.t,
+        pressure_probes(record)?,
+    ))
 }
 
 /// The particles at the last output, coloured by speed.

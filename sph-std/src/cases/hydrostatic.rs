@@ -39,7 +39,7 @@
 
 use std::sync::Arc;
 
-use super::{Case, Reference, ReferencePoint, Settings};
+use super::{Case, Reference, Settings};
 use crate::config::{check, DensityMode, KernelName};
 use crate::error::Result;
 use crate::plot::{line_plot, Axes, Series, REFERENCE};
@@ -209,26 +209,12 @@ pub fn pressure_probes(record: &RunRecord) -> Option<Vec<(f64, f64, f64)>> {
 }
 
 fn reference(record: &RunRecord) -> Option<Reference> {
-    let probes = pressure_probes(record)?;
-    Some(Reference {
-        source:
-            "hydrostatics of the compressible column: dp/dy = -g rho(p), p = rho0 g H at the floor"
-                .into(),
-        t: record.frames.last()?.t,
-        max_deviation: probes
-            .iter()
-            .map(|(_, sph, exact)| (sph - exact).abs())
-            .fold(0.0, f64::max),
-        points: probes
-            .into_iter()
-            .map(|(depth, sph, exact)| ReferencePoint {
-                quantity: "p/(rho0 g H) at depth/H",
-                at: depth,
-                reference: exact,
-                sph,
-            })
-            .collect(),
-    })
+    Some(super::probes_reference(
+        "hydrostatics of the compressible column: dp/dy = -g rho(p), p = rho0 g H at the floor",
+        "p/(rho0 g H) at depth/H",
+        record.frames.last()?.t,
+        pressure_probes(record)?,
+    ))
 }
 
 /// Every particle's pressure against its height at the last output, and

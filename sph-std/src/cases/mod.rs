@@ -203,6 +203,11 @@ pub struct Settings {
     /// laminar term (0: none).
     #[serde(default)]
     pub alpha: f64,
+    /// No tension: continuity density bounded below by `rho0`, so the
+    /// pressure by the background pressure (free surfaces, where tension
+    /// pulls particles into pairs).
+    #[serde(default)]
+    pub tension_cutoff: bool,
     /// Worker threads (0: all cores).
     pub threads: usize,
     /// Monitor: smallest closest-pair distance, in `dx`.
@@ -256,6 +261,7 @@ impl Settings {
             pressure_gradient: PressureForm::Symmetric,
             eos: EosForm::Linear,
             alpha: 0.0,
+            tension_cutoff: false,
             threads: 0,
             monitor_min_spacing: m.min_spacing,
             monitor_max_density_deviation: m.max_density_deviation,
@@ -524,6 +530,7 @@ impl Settings {
             density_diffusion: self.density_diffusion,
             alpha: self.alpha,
             eos: self.eos,
+            tension_cutoff: self.tension_cutoff,
             gravity_ramp: self.gravity_ramp.unwrap_or(0.0),
             sound_speed: c0,
             background_pressure: self.background_pressure * rho0 * c0 * c0,
@@ -636,6 +643,33 @@ pub(crate) fn channel_figure(scene: &Scene, record: &RunRecord) -> Result<Vec<u8
         },
         &series,
     )
+}
+
+/// The reference of pressure probes `(depth, sph, exact)` (already in the
+/// case's pressure unit): the largest absolute difference and every point.
+pub(crate) fn probes_reference(
+    source: &str,
+    quantity: &'static str,
+    t: f64,
+    probes: Vec<(f64, f64, f64)>,
+) -> Reference {
+    Reference {
+        source: source.into(),
+        t,
+        max_deviation: probes
+            .iter()
+            .map(|(_, sph, exact)| (sph - exact).abs())
+            .fold(0.0, f64::max),
+        points: probes
+            .into_iter()
+            .map(|(at, sph, reference)| ReferencePoint {
+                quantity,
+                at,
+                reference,
+                sph,
+            })
+            .collect(),
+    }
 }
 
 /// A field's value at `point` from the particles of `frame` within
