@@ -51,8 +51,6 @@ pub trait Real:
     const MAX: Self;
     /// Smallest positive normal value.
     const MIN_POSITIVE: Self;
-    /// Positive infinity.
-    const INFINITY: Self;
     /// Negative infinity.
     const NEG_INFINITY: Self;
     /// `"f32"` or `"f64"`.
@@ -105,7 +103,6 @@ macro_rules! impl_real {
             const EPSILON: Self = <$t>::EPSILON;
             const MAX: Self = <$t>::MAX;
             const MIN_POSITIVE: Self = <$t>::MIN_POSITIVE;
-            const INFINITY: Self = <$t>::INFINITY;
             const NEG_INFINITY: Self = <$t>::NEG_INFINITY;
             const NAME: &'static str = $name;
             type DefaultMath = $default_math;

@@ -1677,7 +1677,7 @@ where
         let domain = self.domain;
         // With Verlet lists, positions are wrapped at rebuilds only.
         let wrap = !cfg!(feature = "neighbour-lists") || self.list_width == 0;
-        let floor = self.params;
+        let params = self.params;
         let Max2(drift2, _) = {
             let Arrays {
                 x,
@@ -1733,9 +1733,9 @@ where
                         }
                         x[k] = xn;
                         if !summation {
-                            let rh = floor.floored(rho[k] + drho[i] * half);
+                            let rh = params.floored(rho[k] + drho[i] * half);
                             rho_aux[k] = rh;
-                            rho[k] = floor.floored(rh + drho[i] * half);
+                            rho[k] = params.floored(rh + drho[i] * half);
                             if !(rho[k] > S::Real::ZERO) {
                                 return Err(unstable(
                                     step,
@@ -1757,7 +1757,6 @@ where
         }
         self.domain.set_wall_time(self.time + dt);
         self.evaluate(exec)?;
-        let params = self.params;
         let eos = params.eos;
         let limit2 = self.speed_limit2;
         let Max2(vmax2, amax2) = {

@@ -691,12 +691,15 @@ pub fn probe_linear(
     let mut m = [[0.0f64; 5]; 4];
     let mut count = 0;
     for (k, x) in frame.x.iter().enumerate() {
-        let d: Vec<f64> = (0..dim).map(|a| x[a] - point[a]).collect();
-        if d.iter().map(|c| c * c).sum::<f64>().sqrt() > radius {
+        // The basis (1, x - point), the offset in its tail.
+        let mut basis = [1.0f64; 4];
+        for a in 0..dim {
+            basis[a + 1] = x[a] - point[a];
+        }
+        if basis[1..n].iter().map(|c| c * c).sum::<f64>().sqrt() > radius {
             continue;
         }
         count += 1;
-        let basis: Vec<f64> = std::iter::once(1.0).chain(d).collect();
         let v = value(k);
         for r in 0..n {
             for c in 0..n {
