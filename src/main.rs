@@ -211,6 +211,10 @@ struct RunArgs {
     /// pressure by the background pressure (free surfaces).
     #[arg(long, value_name = "BOOL")]
     tension_cutoff: Option<bool>,
+    /// Integrate the energy budget (kinetic, potential, internal,
+    /// dissipated) into summary.json: one more pass per step.
+    #[arg(long, value_name = "BOOL")]
+    energy_budget: Option<bool>,
     /// Time over which gravity rises from zero (free-surface cases).
     #[arg(long, value_name = "S")]
     gravity_ramp: Option<f64>,
@@ -282,7 +286,8 @@ impl RunArgs {
             pressure_gradient,
             eos,
             alpha,
-            tension_cutoff
+            tension_cutoff,
+            energy_budget
         );
         if let Some(ramp) = self.gravity_ramp {
             s.gravity_ramp = Some(ramp);
@@ -465,6 +470,20 @@ fn execute(
         }
         if record.steady {
             outln!("Steady state reached (kinetic energy change below the case's tolerance).");
+        }
+        let last_energy = record.outputs.last().and_then(|d| d.energy);
+        let drift = sph_std::scene::energy_drift(&record.outputs, record.physics.gravity_ramp);
+        if let (Some(e), Some(d)) = (last_energy, drift) {
+            outln!(
+                "Energy at the end: kinetic {:.4e}, potential {:.4e}, internal {:.4e}, dissipated {:.4e}; the sum drifted {:.2e} of {:.4e} from t = {:.4}",
+                e.kinetic_energy,
+                e.potential_energy,
+                e.internal_energy,
+                e.dissipated_energy,
+                d.max_relative,
+                d.energy_scale,
+                d.from
+            );
         }
         if let Some(r) = &reference {
             let worst = r.points.iter().max_by(|a, b| {

@@ -83,11 +83,14 @@ fn through_file(ck: &Checkpoint) -> Checkpoint {
 #[test]
 fn resuming_a_periodic_checkpoint_reproduces_the_run_bit_for_bit() {
     // Walls and a body force (Poiseuille), the periodic box with shifting
-    // (Taylor-Green), a moving lid with the consistent operators (cavity).
+    // (Taylor-Green), a moving lid with the consistent operators (cavity), a
+    // free surface with the energy budget (hydrostatic).
     for (case, resolution, t_end) in [
         ("poiseuille", 12, 0.05),
         ("taylor-green", 16, 0.1),
         ("lid-driven-cavity", 12, 0.3),
+        // The energy budget's running sums, under a gravity ramp.
+        ("hydrostatic", 10, 0.3),
     ] {
         for threads in [1, 2] {
             let s = settings(case, resolution, t_end, threads);

@@ -56,6 +56,16 @@ pub(crate) mod f64s {
     pub fn erf(x: f64) -> f64 {
         libm::erf(x)
     }
+    /// `ln(1 + x)`, accurate for small `x`.
+    #[inline]
+    pub fn ln_1p(x: f64) -> f64 {
+        libm::log1p(x)
+    }
+    /// `e^x - 1`, accurate for small `x`.
+    #[inline]
+    pub fn exp_m1(x: f64) -> f64 {
+        libm::expm1(x)
+    }
 }
 
 /// The portable backend: `libm`, for both precisions.

@@ -1891,6 +1891,25 @@ where
         dv: &mut [S::Vector],
         drho: &mut [S::Real],
     ) -> Result<()> {
+        self.rates_range_of(&self.forces, start, dv, drho)
+    }
+
+    /// The rates of any term group `U` (not necessarily the solver's own) for
+    /// fluid particles `start..start + dv.len()`, on the fields as they are
+    /// now and the ghosts and neighbours of the last evaluation: the
+    /// contribution of one part of the physics, for example the viscous and
+    /// diffusive terms alone, whose work an energy budget integrates. With
+    /// `U` the solver's force group this is [`Self::rates_range`].
+    ///
+    /// # Errors
+    /// As [`Self::rates_range`].
+    pub fn rates_range_of<U: Term<S>>(
+        &self,
+        terms: &U,
+        start: usize,
+        dv: &mut [S::Vector],
+        drho: &mut [S::Real],
+    ) -> Result<()> {
         if drho.len() != dv.len() {
             return Err(Error::LengthMismatch {
                 buffer: "drho",
@@ -1901,7 +1920,7 @@ where
         self.check_range(start, dv.len())?;
         let pass = self.pass();
         for k in 0..dv.len() {
-            let acc = pass.accumulate::<T, false>(&self.forces, start + k);
+            let acc = pass.accumulate::<U, false>(terms, start + k);
             dv[k] = acc.dv;
             drho[k] = acc.drho;
         }
@@ -2031,6 +2050,11 @@ where
     /// The kernel bound to `h`.
     pub fn kernel(&self) -> &SmoothingKernel<S, K, M> {
         &self.kernel
+    }
+
+    /// The force group (with the coefficients of the last step).
+    pub fn forces(&self) -> &T {
+        &self.forces
     }
 
     /// The force group, to change its coefficients between steps (for

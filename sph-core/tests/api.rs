@@ -104,6 +104,54 @@ fn random_chunks_in_random_order_give_bitwise_the_same_rates() {
 }
 
 #[test]
+fn the_rates_of_the_parts_add_up_to_the_rates_of_the_whole() {
+    let (n, nx) = (20, 7);
+    let mut b = disordered_buffers(n, nx, 5);
+    let s = disordered_channel(&mut b, n, nx);
+    let total = s.n_fluid();
+    let mut parts = [
+        (vec![V2::zero(); total], vec![0.0; total]),
+        (vec![V2::zero(); total], vec![0.0; total]),
+        (vec![V2::zero(); total], vec![0.0; total]),
+    ];
+    s.rates_range_of(&Continuity, 0, &mut parts[0].0, &mut parts[0].1)
+        .unwrap();
+    s.rates_range_of(&PressureGradient, 0, &mut parts[1].0, &mut parts[1].1)
+        .unwrap();
+    s.rates_range_of(
+        &MorrisViscosity { mu: 0.01 },
+        0,
+        &mut parts[2].0,
+        &mut parts[2].1,
+    )
+    .unwrap();
+    let scale2 = s
+        .accelerations()
+        .iter()
+        .map(|a| a.norm2())
+        .fold(0.0, f64::max);
+    let mut viscous = 0.0f64;
+    for i in 0..total {
+        // The continuity term moves no particle, the others change no density.
+        assert_eq!(parts[0].0[i], V2::zero());
+        assert_eq!((parts[1].1[i], parts[2].1[i]), (0.0, 0.0));
+        assert_eq!(parts[0].1[i], s.density_rates()[i]);
+        let sum = parts[1].0[i] + parts[2].0[i];
+        assert!(
+            (sum - s.accelerations()[i]).norm2() <= 1e-24 * scale2,
+            "particle {i}"
+        );
+        viscous = viscous.max(parts[2].0[i].norm2());
+    }
+    assert!(viscous > 0.0, "the viscous term must be exercised");
+    // The same checks as the solver's own group.
+    let mut dv = vec![V2::zero(); 2];
+    assert!(s
+        .rates_range_of(&PressureGradient, total - 1, &mut dv, &mut [0.0; 2])
+        .is_err());
+}
+
+#[test]
 fn chunked_stepping_matches_serial_stepping_bitwise() {
     let (n, nx) = (16, 6);
     let mut b1 = disordered_buffers(n, nx, 8);

@@ -21,13 +21,13 @@ use std::path::Path;
 use sph_core::solver::Resume;
 
 use crate::error::{Error, Result};
-use crate::scene::{Diagnostics, Frame};
+use crate::scene::{Diagnostics, Energy, Frame};
 
 /// The checkpoint's file name inside an output directory.
 pub const FILE: &str = "checkpoint.bin";
 
 /// Magic string and format version.
-const MAGIC: &[u8; 8] = b"SPHCKPT\x01";
+const MAGIC: &[u8; 8] = b"SPHCKPT\x02";
 
 /// Names of the real-valued buffers, in the order of [`Arrays::reals`].
 pub const REAL_NAMES: [&str; 10] = [
@@ -97,6 +97,10 @@ pub struct Checkpoint {
     pub outputs: Vec<Diagnostics>,
     /// Particle frames of the output times reached (where kept).
     pub frames: Vec<Frame>,
+    /// The energy budget's running state: the dissipated energy, the
+    /// dissipative power at the last step, the periodic body force's
+    /// potential and its work rate at the last step (zeros without a budget).
+    pub budget: [f64; 4],
     /// The command's options.
     pub options: Options,
 }
@@ -252,6 +256,18 @@ impl Checkpoint {
             w.f64(d.max_mach);
             w.opt(d.linf);
             w.opt(d.l2);
+            w.u64(u64::from(d.energy.is_some()));
+            if let Some(e) = d.energy {
+                for x in [
+                    e.kinetic_energy,
+                    e.potential_energy,
+                    e.internal_energy,
+                    e.dissipated_energy,
+                    e.total_energy,
+                ] {
+                    w.f64(x);
+                }
+            }
         }
         w.u64(self.frames.len() as u64);
         for f in &self.frames {
@@ -260,6 +276,9 @@ impl Checkpoint {
             w.triples(&f.v);
             w.f64s(&f.rho);
             w.f64s(&f.p);
+        }
+        for b in self.budget {
+            w.f64(b);
         }
         w.u64(u64::from(self.options.vtk));
         w.u64(u64::from(self.options.vtk_ascii));
@@ -334,7 +353,7 @@ impl Checkpoint {
         let words = (0..n)
             .map(|_| r.u32s())
             .collect::<std::result::Result<_, _>>()?;
-        let n = r.len(8 * 11)?;
+        let n = r.len(8 * 12)?;
         let mut outputs = Vec::with_capacity(n);
         for _ in 0..n {
             outputs.push(Diagnostics {
@@ -346,6 +365,17 @@ impl Checkpoint {
                 max_mach: r.f64()?,
                 linf: r.opt()?,
                 l2: r.opt()?,
+                energy: if r.bool()? {
+                    Some(Energy {
+                        kinetic_energy: r.f64()?,
+                        potential_energy: r.f64()?,
+                        internal_energy: r.f64()?,
+                        dissipated_energy: r.f64()?,
+                        total_energy: r.f64()?,
+                    })
+                } else {
+                    None
+                },
             });
         }
         let n = r.len(8 * 5)?;
@@ -359,6 +389,7 @@ impl Checkpoint {
                 p: r.f64s()?,
             });
         }
+        let budget = [r.f64()?, r.f64()?, r.f64()?, r.f64()?];
         let options = Options {
             vtk: r.bool()?,
             vtk_ascii: r.bool()?,
@@ -378,6 +409,7 @@ impl Checkpoint {
             arrays: Arrays { reals, words },
             outputs,
             frames,
+            budget,
             options,
         })
     }
@@ -441,6 +473,13 @@ mod tests {
                 max_mach: 0.1,
                 linf: Some(2e-3),
                 l2: Some(1e-3),
+                energy: Some(Energy {
+                    kinetic_energy: 1.0e-3,
+                    potential_energy: -2.5,
+                    internal_energy: 1e-5,
+                    dissipated_energy: 0.125,
+                    total_energy: -2.37599,
+                }),
             }],
             frames: vec![Frame {
                 t: 0.05,
@@ -449,6 +488,7 @@ mod tests {
                 rho: vec![1000.0],
                 p: vec![-3.5],
             }],
+            budget: [0.125, -1e-3, 4.0, 0.5],
             options: Options {
                 vtk: true,
                 vtk_ascii: false,

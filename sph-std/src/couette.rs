@@ -300,6 +300,7 @@ pub fn scene(cfg: &CouetteConfig) -> Scene {
             alpha: geo.alpha,
             eos: EosForm::Linear,
             tension_cutoff: false,
+            energy_budget: false,
             gravity_ramp: 0.0,
             sound_speed: geo.c0,
             background_pressure: cfg.background_pressure * cfg.rho0 * geo.c0 * geo.c0,

@@ -12,7 +12,9 @@ use crate::couette::Snapshot;
 use crate::error::{Error, Result};
 use crate::output::{pvd, vtu, write_atomic, VtkEncoding};
 use crate::plot::{line_plot, Axes, Series};
-use crate::scene::{Diagnostics, Monitor, Physics, RunRecord, VectorField};
+use crate::scene::{
+    energy_drift, Diagnostics, EnergyDrift, Monitor, Physics, RunRecord, VectorField,
+};
 
 #[derive(Serialize)]
 struct Summary<'a> {
@@ -41,6 +43,8 @@ struct Summary<'a> {
     wall_seconds: f64,
     storage_bytes: usize,
     outputs: &'a [Diagnostics],
+    #[serde(skip_serializing_if = "Option::is_none")]
+    energy_drift: Option<EnergyDrift>,
     #[serde(skip_serializing_if = "Option::is_none")]
     reference: Option<&'a Reference>,
     #[serde(flatten)]
@@ -93,6 +97,7 @@ pub fn summary_json(
         wall_seconds: record.wall_seconds,
         storage_bytes: record.storage_bytes,
         outputs: &record.outputs,
+        energy_drift: energy_drift(&record.outputs, record.physics.gravity_ramp),
         reference,
         provenance: crate::provenance::now(),
     };

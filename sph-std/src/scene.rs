@@ -181,6 +181,8 @@ pub struct Physics {
     /// No tension: continuity density bounded below by `rho0`, so the
     /// pressure by the background pressure (`sph_core::solver::Params::density_floor`).
     pub tension_cutoff: bool,
+    /// Whether the run integrates an energy budget ([`Energy`]).
+    pub energy_budget: bool,
     /// Time over which the body force rises from zero,
     /// `g(t) = g (1 - cos(pi t / T)) / 2` for `t < T` (0: on from the start).
     pub gravity_ramp: f64,
@@ -315,6 +317,75 @@ pub struct Diagnostics {
     /// `sqrt(mean |v - v_exact|^2)` relative to the error scale.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub l2: Option<f64>,
+    /// The energy budget (runs with `energy_budget` only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub energy: Option<Energy>,
+}
+
+/// The energy budget at an output time, in J (per unit depth in 2D): what
+/// the weakly compressible equations conserve without viscosity and
+/// diffusion, plus what those terms took out.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Energy {
+    /// `sum 1/2 m |v|^2`.
+    pub kinetic_energy: f64,
+    /// `-sum m g(t) . (x - origin)` for the body force's part along bounded
+    /// axes (at its ramped strength, measured from the box's origin), plus,
+    /// along periodic axes, where wrapped positions have no potential,
+    /// minus that part's work integrated every step (`-int sum m g . v dt`,
+    /// the potential of the unwrapped displacement): so a channel's driving
+    /// force balances its dissipation in the total.
+    pub potential_energy: f64,
+    /// `sum m e(rho)`, `e` the energy the equation of state stores in
+    /// compression (`sph_core::eos::Eos::internal_energy`).
+    pub internal_energy: f64,
+    /// `-int sum m (v . a_visc + P / rho^2 Drho_diff) dt`: the work of the
+    /// viscous terms (wall ghosts included, so a moving wall's input counts
+    /// negative) and the change of internal energy by density diffusion,
+    /// integrated every step by the trapezoidal rule; not a residual.
+    pub dissipated_energy: f64,
+    /// The sum of the four: constant for a closed system once a ramp is
+    /// over, up to time-integration error, shifting's transport and the
+    /// work of the wall ghosts' pressure.
+    pub total_energy: f64,
+}
+
+/// How far the budget's total moved after the body force's ramp.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct EnergyDrift {
+    /// The reference output: the first at or after the ramp's end.
+    pub from: f64,
+    /// The largest `|potential| + kinetic + |internal|` over the outputs
+    /// from the reference on: the scale of the drift.
+    pub energy_scale: f64,
+    /// Largest `|total - total_ref|` over the later outputs, over the scale.
+    pub max_relative: f64,
+    /// `(total - total_ref)` at the last output, over the scale.
+    pub final_relative: f64,
+}
+
+/// The drift of the energy budget's total over outputs after a ramp of
+/// `ramp` seconds (0: none); `None` without a budget or without an output
+/// after the ramp.
+pub fn energy_drift(outputs: &[Diagnostics], ramp: f64) -> Option<EnergyDrift> {
+    let start = outputs.iter().position(|d| d.t >= ramp * (1.0 - 1e-12))?;
+    let first = outputs[start].energy?;
+    let mut scale: f64 = 0.0;
+    let mut max: f64 = 0.0;
+    let mut last = 0.0;
+    for d in &outputs[start..] {
+        let e = d.energy?;
+        scale = scale.max(e.potential_energy.abs() + e.kinetic_energy + e.internal_energy.abs());
+        last = e.total_energy - first.total_energy;
+        max = max.max(last.abs());
+    }
+    let (max, last) = (max / scale, last / scale);
+    Some(EnergyDrift {
+        from: outputs[start].t,
+        energy_scale: scale,
+        max_relative: max,
+        final_relative: last,
+    })
 }
 
 /// Particle state at one output time (fluid only, in creation order).
@@ -730,31 +801,35 @@ where
         d.gradient = gradient0 * k;
     };
     match (scene.physics.density, scene.physics.regularise) {
-        (DensityMode::Summation, Regularise::None) => ctx.simulate::<S, K, M, _, _>(
+        (DensityMode::Summation, Regularise::None) => ctx.simulate::<S, K, M, _, _, _>(
             SummationDensity,
             (PressureGradient, visc, g),
             |t, _, k| ramp(&mut t.2, k),
+            |t| t.1,
         ),
-        (DensityMode::Summation, Regularise::Shifting) => ctx.simulate::<S, K, M, _, _>(
+        (DensityMode::Summation, Regularise::Shifting) => ctx.simulate::<S, K, M, _, _, _>(
             SummationDensity,
             (PressureGradient, visc, g, shift),
             |t, v, k| {
                 ramp(&mut t.2, k);
                 retune(&mut t.3, v);
             },
+            |t| t.1,
         ),
-        (continuity, Regularise::None) => ctx.simulate::<S, K, M, _, _>(
+        (continuity, Regularise::None) => ctx.simulate::<S, K, M, _, _, _>(
             (),
             ((by_form(continuity), diffusion), pressure, visc, g),
             |t, _, k| ramp_both(&mut t.3, &mut t.0 .1, k),
+            |t| (t.2, t.0 .1),
         ),
-        (continuity, Regularise::Shifting) => ctx.simulate::<S, K, M, _, _>(
+        (continuity, Regularise::Shifting) => ctx.simulate::<S, K, M, _, _, _>(
             (),
             ((by_form(continuity), diffusion), pressure, visc, g, shift),
             |t, v, k| {
                 ramp_both(&mut t.3, &mut t.0 .1, k);
                 retune(&mut t.4, v);
             },
+            |t| (t.2, t.0 .1),
         ),
     }
 }
@@ -841,11 +916,16 @@ impl<E: Executor> Context<'_, '_, E> {
         Ok(domain)
     }
 
-    fn simulate<S, K, M, D, T>(
+    /// Runs the scene with a density group, a force group, the closure
+    /// that retunes the forces before each step (from the largest speed and
+    /// the ramp factor) and the closure that picks the dissipative terms
+    /// (viscous and diffusive) out of the force group for the energy budget.
+    fn simulate<S, K, M, D, T, X>(
         &mut self,
         density: D,
         forces: T,
         retune: impl Fn(&mut T, f64, S::Real),
+        dissipation: impl Fn(&T) -> X,
     ) -> Result<RunRecord>
     where
         S: Space,
@@ -853,6 +933,7 @@ impl<E: Executor> Context<'_, '_, E> {
         M: Math<S::Real>,
         D: Term<S>,
         T: Term<S>,
+        X: Term<S>,
     {
         let s = self.scene;
         let exec = self.exec;
@@ -989,6 +1070,32 @@ impl<E: Executor> Context<'_, '_, E> {
                 "the time step from the stability limits must be positive and finite",
             ));
         }
+        // The energy budget: [dissipated energy, dissipative power, the
+        // potential of the body force along periodic axes (minus its work),
+        // that work's rate], the rates at the end of the last step and
+        // integrated by the trapezoidal rule.
+        let periodic_g: [f64; 3] = std::array::from_fn(|a| match s.axes[a] {
+            AxisSpec::Periodic => s.body_force[a],
+            AxisSpec::Walls(..) => 0.0,
+        });
+        let rates = |solver: &Solver<'_, S, K, M, D, T>| -> Result<[f64; 2]> {
+            let k = ramp_factor(solver.time(), s.physics.gravity_ramp);
+            let mut body = 0.0;
+            for (m, v) in solver.masses().iter().zip(solver.velocities()) {
+                let v = vec3::<S>(*v);
+                body += m.to_f64() * k * (0..3).map(|a| periodic_g[a] * v[a]).sum::<f64>();
+            }
+            let power = dissipation_power(solver, &dissipation(solver.forces()), exec)?;
+            Ok([power, body])
+        };
+        let mut budget = match (s.physics.energy_budget, resume) {
+            (false, _) => None,
+            (true, Some(ck)) => Some(ck.budget),
+            (true, None) => {
+                let [power, body] = rates(&solver)?;
+                Some([0.0, power, 0.0, body])
+            }
+        };
         let mut total = 0.0;
         let mut last = 0.0;
         for &t in &s.output_times {
@@ -1057,6 +1164,7 @@ impl<E: Executor> Context<'_, '_, E> {
         let mut next_checkpoint = next_after(solver.time());
         let capture = |solver: &Solver<'_, S, K, M, D, T>,
                        record: &RunRecord,
+                       budget: Option<[f64; 4]>,
                        interval: usize,
                        done: u64| Checkpoint {
             case: s.case.clone(),
@@ -1071,6 +1179,7 @@ impl<E: Executor> Context<'_, '_, E> {
             arrays: crate::driver::save(&solver.storage()),
             outputs: record.outputs.clone(),
             frames: record.frames.clone(),
+            budget: budget.unwrap_or([0.0; 4]),
             options: Default::default(),
         };
         'outputs: for (interval, &(t_out, steps, dt)) in
@@ -1089,7 +1198,8 @@ impl<E: Executor> Context<'_, '_, E> {
                         reason: format!("interrupted at t = {:.6e} s", solver.time()),
                     });
                     record.steps = solver.steps();
-                    record.checkpoint = Some(Box::new(capture(&solver, &record, interval, k)));
+                    record.checkpoint =
+                        Some(Box::new(capture(&solver, &record, budget, interval, k)));
                     break 'outputs;
                 }
                 let vmax = solver.max_speed();
@@ -1110,6 +1220,12 @@ impl<E: Executor> Context<'_, '_, E> {
                     });
                     break 'outputs;
                 }
+                if let Some([dissipated, power, potential, body]) = budget.as_mut() {
+                    let [p, b] = rates(&solver)?;
+                    *dissipated -= 0.5 * dt * (*power + p);
+                    *potential -= 0.5 * dt * (*body + b);
+                    (*power, *body) = (p, b);
+                }
                 if k % 64 == 63 {
                     self.ctl.progress.advance(64);
                 }
@@ -1121,13 +1237,13 @@ impl<E: Executor> Context<'_, '_, E> {
                 }
                 if next_checkpoint.is_some_and(|tc| solver.time() >= tc) {
                     record.steps = solver.steps();
-                    let ck = capture(&solver, &record, interval, k + 1);
+                    let ck = capture(&solver, &record, budget, interval, k + 1);
                     (self.ctl.on_checkpoint)(&record, &ck)?;
                     next_checkpoint = next_after(solver.time());
                 }
             }
             self.ctl.progress.advance((steps - first) % 64);
-            let (diag, worst) = self.diagnostics(&solver, t_out);
+            let (diag, worst) = self.diagnostics(&solver, t_out, budget.map(|b| [b[0], b[2]]));
             record.outputs.push(diag);
             if s.keep_particles {
                 record.frames.push(frame(&solver, t_out));
@@ -1247,6 +1363,7 @@ impl<E: Executor> Context<'_, '_, E> {
         &self,
         solver: &Solver<'_, S, K, M, D, T>,
         t: f64,
+        budget: Option<[f64; 2]>,
     ) -> (Diagnostics, Worst)
     where
         S: Space,
@@ -1286,8 +1403,33 @@ impl<E: Executor> Context<'_, '_, E> {
             density: max_density_deviation(solver, s.rho0),
             mach: max_mach(solver, s.physics.sound_speed),
         };
+        let energy = budget.map(|[dissipated, periodic]| {
+            // The body force along bounded axes, at its ramped strength.
+            let k = ramp_factor(t, s.physics.gravity_ramp);
+            let g: [f64; 3] = std::array::from_fn(|a| match s.axes[a] {
+                AxisSpec::Walls(..) => k * s.body_force[a],
+                AxisSpec::Periodic => 0.0,
+            });
+            let eos = solver.params().eos;
+            let (mut potential, mut internal) = (periodic, 0.0);
+            for (k, x) in solver.positions().iter().enumerate() {
+                let m = solver.masses()[k].to_f64();
+                let p = to3::<S>(domain.to_global(domain.wrap::<M>(*x)));
+                let height: f64 = (0..3).map(|a| g[a] * (p[a] - s.origin[a])).sum();
+                potential -= m * height;
+                internal += m * eos.internal_energy(solver.densities()[k].to_f64());
+            }
+            Energy {
+                kinetic_energy: ke,
+                potential_energy: potential,
+                internal_energy: internal,
+                dissipated_energy: dissipated,
+                total_energy: ke + potential + internal + dissipated,
+            }
+        });
         let diag = Diagnostics {
             t,
+            energy,
             kinetic_energy: ke,
             kinetic_energy_exact: s.exact.as_ref().map(|_| ke_exact),
             min_spacing: worst.spacing.map_or(f64::INFINITY, |(r, _)| r),
@@ -1298,6 +1440,41 @@ impl<E: Executor> Context<'_, '_, E> {
         };
         (diag, worst)
     }
+}
+
+/// The rate `sum m (v . a + P / rho^2 Drho)` at which the terms `terms`
+/// (the dissipative part of the force group) change the mechanical and
+/// internal energy, on the solver's current state; each particle's share is
+/// computed in parallel, the sum is taken in particle order (the same bits
+/// for any thread count).
+fn dissipation_power<S, K, M, D, T, X, E>(
+    solver: &Solver<'_, S, K, M, D, T>,
+    terms: &X,
+    exec: &E,
+) -> Result<f64>
+where
+    S: Space,
+    K: Kernel,
+    M: Math<S::Real>,
+    D: Term<S>,
+    T: Term<S>,
+    X: Term<S>,
+    E: Executor,
+{
+    let mut share = vec![0.0; solver.n_fluid()];
+    exec.run(&mut share[..], &|start, out: &mut [f64]| {
+        let (mut dv, mut drho) = ([S::Vector::zero()], [S::Real::ZERO]);
+        for (k, o) in out.iter_mut().enumerate() {
+            let i = start + k;
+            solver.rates_range_of(terms, i, &mut dv, &mut drho)?;
+            let rho = solver.densities()[i].to_f64();
+            let p = solver.pressures()[i].to_f64();
+            let work = solver.velocities()[i].dot(dv[0]).to_f64();
+            *o = solver.masses()[i].to_f64() * (work + p / (rho * rho) * drho[0].to_f64());
+        }
+        Ok(())
+    })?;
+    Ok(share.iter().sum())
 }
 
 /// Outputs averaged in each window of the steady-state test.

@@ -74,6 +74,7 @@ fn defaults() -> Settings {
     s.density = DensityMode::Continuity;
     s.eos = EosForm::Tait;
     s.gravity_ramp = Some(1.0);
+    s.energy_budget = true;
     s
 }
 

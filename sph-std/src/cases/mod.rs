@@ -208,6 +208,11 @@ pub struct Settings {
     /// pulls particles into pairs).
     #[serde(default)]
     pub tension_cutoff: bool,
+    /// The energy budget (kinetic, potential, internal, dissipated) at
+    /// every output time, at the cost of one more pass per step over the
+    /// viscous and diffusive terms.
+    #[serde(default)]
+    pub energy_budget: bool,
     /// Worker threads (0: all cores).
     pub threads: usize,
     /// Monitor: smallest closest-pair distance, in `dx`.
@@ -262,6 +267,7 @@ impl Settings {
             eos: EosForm::Linear,
             alpha: 0.0,
             tension_cutoff: false,
+            energy_budget: false,
             threads: 0,
             monitor_min_spacing: m.min_spacing,
             monitor_max_density_deviation: m.max_density_deviation,
@@ -531,6 +537,7 @@ impl Settings {
             alpha: self.alpha,
             eos: self.eos,
             tension_cutoff: self.tension_cutoff,
+            energy_budget: self.energy_budget,
             gravity_ramp: self.gravity_ramp.unwrap_or(0.0),
             sound_speed: c0,
             background_pressure: self.background_pressure * rho0 * c0 * c0,
