@@ -215,6 +215,10 @@ struct RunArgs {
     /// dissipated) into summary.json: one more pass per step.
     #[arg(long, value_name = "BOOL")]
     energy_budget: Option<bool>,
+    /// Choose the time step every step from the current state (acoustic
+    /// limit on c0 + max speed, force and viscous limits) times dt_factor.
+    #[arg(long, value_name = "BOOL")]
+    adaptive_dt: Option<bool>,
     /// Time over which gravity rises from zero (free-surface cases).
     #[arg(long, value_name = "S")]
     gravity_ramp: Option<f64>,
@@ -287,7 +291,8 @@ impl RunArgs {
             eos,
             alpha,
             tension_cutoff,
-            energy_budget
+            energy_budget,
+            adaptive_dt
         );
         if let Some(ramp) = self.gravity_ramp {
             s.gravity_ramp = Some(ramp);

@@ -119,6 +119,34 @@ fn resuming_a_periodic_checkpoint_reproduces_the_run_bit_for_bit() {
     }
 }
 
+#[test]
+fn an_adaptive_step_is_the_same_on_any_thread_count_and_after_a_resume() {
+    // The step follows the state (largest speed and acceleration, maxima
+    // that do not depend on the order of a reduction), so the step sequence,
+    // and with it every particle, is the same on one thread and on two, and
+    // a resumed run picks it up where it stopped; under a gravity ramp, with
+    // the energy budget running.
+    let t_end = 0.6;
+    let mut runs = Vec::new();
+    for threads in [1, 2] {
+        let mut s = settings("hydrostatic", 10, t_end, threads);
+        s.adaptive_dt = true;
+        let (whole, taken) = run(&s, &Silent, None, Some(t_end / 3.0));
+        let [lo, hi] = whole.dt_range.expect("an adaptive run reports its steps");
+        assert!(0.0 < lo && lo <= hi, "{lo} {hi}");
+        assert!(taken.len() >= 2, "{} checkpoints", taken.len());
+        for ck in &taken {
+            let (resumed, _) = run(&s, &Silent, Some(&through_file(ck)), None);
+            let what = format!("adaptive, {threads} thread(s), from t = {}", ck.state.time);
+            assert_same_run(&whole, &resumed, &what);
+            assert_eq!(whole.dt_range, resumed.dt_range, "{what}");
+        }
+        runs.push(whole);
+    }
+    assert_same_run(&runs[0], &runs[1], "adaptive, 1 against 2 threads");
+    assert_eq!(runs[0].dt_range, runs[1].dt_range);
+}
+
 /// Asks the run to stop after `after` polls.
 struct StopAfter {
     polls: AtomicU64,

@@ -83,8 +83,11 @@ pub struct Checkpoint {
     pub interval: usize,
     /// Steps of that interval already taken.
     pub done: u64,
-    /// The run's time step (fixed at its start).
+    /// The run's time step (fixed at its start; with an adaptive step, the
+    /// estimate made at the start).
     pub dt: f64,
+    /// With an adaptive step, the smallest and largest steps so far.
+    pub dt_range: Option<[f64; 2]>,
     /// The time-step limits at the run's start: `[cfl, viscous, force]`.
     pub limits: [f64; 3],
     /// Bytes of particle storage.
@@ -280,6 +283,10 @@ impl Checkpoint {
         for b in self.budget {
             w.f64(b);
         }
+        w.u64(u64::from(self.dt_range.is_some()));
+        for x in self.dt_range.unwrap_or_default() {
+            w.f64(x);
+        }
         w.u64(u64::from(self.options.vtk));
         w.u64(u64::from(self.options.vtk_ascii));
         w.f64(self.options.checkpoint_every);
@@ -390,6 +397,9 @@ impl Checkpoint {
             });
         }
         let budget = [r.f64()?, r.f64()?, r.f64()?, r.f64()?];
+        let ranged = r.bool()?;
+        let range = [r.f64()?, r.f64()?];
+        let dt_range = ranged.then_some(range);
         let options = Options {
             vtk: r.bool()?,
             vtk_ascii: r.bool()?,
@@ -410,6 +420,7 @@ impl Checkpoint {
             outputs,
             frames,
             budget,
+            dt_range,
             options,
         })
     }
@@ -489,6 +500,7 @@ mod tests {
                 p: vec![-3.5],
             }],
             budget: [0.125, -1e-3, 4.0, 0.5],
+            dt_range: Some([1e-4, 3e-4]),
             options: Options {
                 vtk: true,
                 vtk_ascii: false,

@@ -301,6 +301,7 @@ pub fn scene(cfg: &CouetteConfig) -> Scene {
             eos: EosForm::Linear,
             tension_cutoff: false,
             energy_budget: false,
+            adaptive_dt: false,
             gravity_ramp: 0.0,
             sound_speed: geo.c0,
             background_pressure: cfg.background_pressure * cfg.rho0 * geo.c0 * geo.c0,

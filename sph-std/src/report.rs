@@ -38,6 +38,8 @@ struct Summary<'a> {
     monitor: &'a Monitor,
     limits: Limits,
     dt: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    dt_range: Option<[f64; 2]>,
     steps: u64,
     threads: usize,
     wall_seconds: f64,
@@ -92,6 +94,7 @@ pub fn summary_json(
             force: finite(record.limits[2]),
         },
         dt: record.dt,
+        dt_range: record.dt_range,
         steps: record.steps,
         threads: record.threads,
         wall_seconds: record.wall_seconds,

@@ -183,6 +183,9 @@ pub struct Physics {
     pub tension_cutoff: bool,
     /// Whether the run integrates an energy budget ([`Energy`]).
     pub energy_budget: bool,
+    /// Whether the time step follows the state (`dt_factor` times the
+    /// smallest of the current limits) instead of staying fixed.
+    pub adaptive_dt: bool,
     /// Time over which the body force rises from zero,
     /// `g(t) = g (1 - cos(pi t / T)) / 2` for `t < T` (0: on from the start).
     pub gravity_ramp: f64,
@@ -443,8 +446,13 @@ pub struct RunRecord {
     pub body_force: [f64; 3],
     /// Time-step limits at the start: `[cfl, viscous, force]` seconds.
     pub limits: [f64; 3],
-    /// The step used.
+    /// The step used (with `adaptive_dt`, the estimate made at the start
+    /// from the scene's velocity scale).
     pub dt: f64,
+    /// With `adaptive_dt`: the smallest and the largest step taken (the
+    /// last step of an output interval is shortened to land on it, and is
+    /// left out).
+    pub dt_range: Option<[f64; 2]>,
     /// Steps taken.
     pub steps: u64,
     /// Threads used.
@@ -1120,7 +1128,10 @@ impl<E: Executor> Context<'_, '_, E> {
             last = t;
         }
         let (first_interval, first_done) = resume.map_or((0, 0), |ck| (ck.interval, ck.done));
-        if first_interval > plan.len() || plan.get(first_interval).is_some_and(|p| first_done > p.1)
+        let adaptive = s.physics.adaptive_dt;
+        // With an adaptive step the plan's step counts are estimates.
+        if first_interval > plan.len()
+            || (!adaptive && plan.get(first_interval).is_some_and(|p| first_done > p.1))
         {
             return Err(Error::config(
                 "checkpoint",
@@ -1146,6 +1157,7 @@ impl<E: Executor> Context<'_, '_, E> {
             body_force: s.body_force,
             limits,
             dt: dt_max,
+            dt_range: resume.and_then(|ck| ck.dt_range),
             steps: 0,
             threads: 1,
             wall_seconds: 0.0,
@@ -1167,6 +1179,7 @@ impl<E: Executor> Context<'_, '_, E> {
                        budget: Option<[f64; 4]>,
                        interval: usize,
                        done: u64| Checkpoint {
+            dt_range: record.dt_range,
             case: s.case.clone(),
             dim: S::DIM,
             n_fluid: n,
@@ -1182,7 +1195,7 @@ impl<E: Executor> Context<'_, '_, E> {
             budget: budget.unwrap_or([0.0; 4]),
             options: Default::default(),
         };
-        'outputs: for (interval, &(t_out, steps, dt)) in
+        'outputs: for (interval, &(t_out, steps, fixed_dt)) in
             plan.iter().enumerate().skip(first_interval)
         {
             let first = if interval == first_interval {
@@ -1190,7 +1203,31 @@ impl<E: Executor> Context<'_, '_, E> {
             } else {
                 0
             };
-            for k in first..steps {
+            let mut k = first;
+            loop {
+                // The step: fixed, or `dt_factor` times the current state's
+                // smallest limit, shortened to land on the output time (and
+                // halved before that rather than leave a sliver).
+                let dt = if adaptive {
+                    let want = s.physics.dt_factor * solver.limits().min();
+                    let remaining = t_out - solver.time();
+                    if remaining <= 1e-6 * want {
+                        break;
+                    }
+                    let [lo, hi] = record.dt_range.unwrap_or([want, want]);
+                    record.dt_range = Some([lo.min(want), hi.max(want)]);
+                    if remaining <= want {
+                        remaining
+                    } else if remaining < 2.0 * want {
+                        0.5 * remaining
+                    } else {
+                        want
+                    }
+                } else if k < steps {
+                    fixed_dt
+                } else {
+                    break;
+                };
                 if self.ctl.progress.cancelled() {
                     record.stop = Some(Stop {
                         t: solver.time(),
@@ -1241,8 +1278,9 @@ impl<E: Executor> Context<'_, '_, E> {
                     (self.ctl.on_checkpoint)(&record, &ck)?;
                     next_checkpoint = next_after(solver.time());
                 }
+                k += 1;
             }
-            self.ctl.progress.advance((steps - first) % 64);
+            self.ctl.progress.advance((k - first) % 64);
             let (diag, worst) = self.diagnostics(&solver, t_out, budget.map(|b| [b[0], b[2]]));
             record.outputs.push(diag);
             if s.keep_particles {

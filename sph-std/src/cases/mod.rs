@@ -213,6 +213,12 @@ pub struct Settings {
     /// viscous and diffusive terms.
     #[serde(default)]
     pub energy_budget: bool,
+    /// A time step chosen every step from the current state (the acoustic
+    /// limit on `c0` plus the largest speed, the force limit on the largest
+    /// acceleration, the viscous limit), times `dt_factor`, instead of one
+    /// fixed step from the scene's velocity scale.
+    #[serde(default)]
+    pub adaptive_dt: bool,
     /// Worker threads (0: all cores).
     pub threads: usize,
     /// Monitor: smallest closest-pair distance, in `dx`.
@@ -268,6 +274,7 @@ impl Settings {
             alpha: 0.0,
             tension_cutoff: false,
             energy_budget: false,
+            adaptive_dt: false,
             threads: 0,
             monitor_min_spacing: m.min_spacing,
             monitor_max_density_deviation: m.max_density_deviation,
@@ -538,6 +545,7 @@ impl Settings {
             eos: self.eos,
             tension_cutoff: self.tension_cutoff,
             energy_budget: self.energy_budget,
+            adaptive_dt: self.adaptive_dt,
             gravity_ramp: self.gravity_ramp.unwrap_or(0.0),
             sound_speed: c0,
             background_pressure: self.background_pressure * rho0 * c0 * c0,
