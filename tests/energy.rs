@@ -10,6 +10,7 @@ use sph_core::eos::Eos;
 use sph_core::math::Libm;
 use sph_std::cases::{self, Settings};
 use sph_std::couette::Silent;
+use sph_std::report;
 use sph_std::scene::{self, energy_drift, Energy, RunRecord};
 
 fn settings(case: &str, extra: &str) -> Settings {
@@ -89,6 +90,10 @@ fn a_tank_at_rest_holds_the_energy_of_the_compressible_column_and_conserves_it()
     eprintln!("drift after the ramp: {drift:?}");
     assert_eq!(drift.from, r.outputs[from].t);
     assert!(drift.max_relative < 1e-2);
+    let png = report::energy_png(&r)
+        .unwrap()
+        .expect("a budget has a plot");
+    assert_eq!(&png[1..4], b"PNG");
 }
 
 #[test]
@@ -166,4 +171,5 @@ fn without_the_key_there_is_no_budget() {
     let r = run(&s);
     assert!(r.outputs.iter().all(|o| o.energy.is_none()));
     assert!(energy_drift(&r.outputs, 0.0).is_none());
+    assert!(report::energy_png(&r).unwrap().is_none());
 }

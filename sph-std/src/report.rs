@@ -219,6 +219,69 @@ pub fn diagnostics_png(record: &RunRecord) -> Result<Vec<u8>> {
     )
 }
 
+/// `energy.png` (runs with an energy budget): kinetic, internal and
+/// dissipated energy, the change of the potential energy and of the sum
+/// since the first output, each over the budget's energy scale
+/// ([`crate::scene::EnergyDrift::energy_scale`], or the largest term
+/// without one), against time, on linear axes; `None` without a budget.
+///
+/// # Errors
+/// If drawing fails.
+pub fn energy_png(record: &RunRecord) -> Result<Option<Vec<u8>>> {
+    let budget: Vec<(f64, crate::scene::Energy)> = record
+        .outputs
+        .iter()
+        .filter_map(|d| d.energy.map(|e| (d.t, e)))
+        .collect();
+    let Some(&(_, first)) = budget.first() else {
+        return Ok(None);
+    };
+    let scale = energy_drift(&record.outputs, record.physics.gravity_ramp)
+        .map(|d| d.energy_scale)
+        .filter(|s| *s > 0.0)
+        .unwrap_or_else(|| {
+            budget
+                .iter()
+                .map(|(_, e)| e.potential_energy.abs() + e.kinetic_energy + e.internal_energy.abs())
+                .fold(f64::MIN_POSITIVE, f64::max)
+        });
+    type Pick = fn(&crate::scene::Energy, &crate::scene::Energy) -> f64;
+    let parts: [(&str, Pick); 5] = [
+        ("kinetic", |e, _| e.kinetic_energy),
+        ("potential - potential(first)", |e, f| {
+            e.potential_energy - f.potential_energy
+        }),
+        ("internal", |e, _| e.internal_energy),
+        ("dissipated", |e, _| e.dissipated_energy),
+        ("sum - sum(first)", |e, f| e.total_energy - f.total_energy),
+    ];
+    let series: Vec<Series> = parts
+        .iter()
+        .enumerate()
+        .map(|(k, (label, pick))| Series {
+            label: (*label).into(),
+            points: budget
+                .iter()
+                .map(|(t, e)| (*t, pick(e, &first) / scale))
+                .collect(),
+            color: k,
+            line: true,
+            markers: k == 4,
+        })
+        .collect();
+    line_plot(
+        &Axes {
+            title: format!("{}: energy budget / {scale:.4e} J", record.case),
+            x: "t [s]".into(),
+            y: "energy / scale".into(),
+            log_x: false,
+            log_y: false,
+        },
+        &series,
+    )
+    .map(Some)
+}
+
 /// The VTK snapshots a run writes: their encoding and, where the scene has
 /// an exact solution, what the `velocity_exact` and `error` arrays need.
 #[derive(Clone, Copy)]
@@ -261,6 +324,9 @@ pub fn write_record(
         put("config.toml", s.to_toml()?.as_bytes())?;
     }
     put("diagnostics.png", &diagnostics_png(record)?)?;
+    if let Some(png) = energy_png(record)? {
+        put("energy.png", &png)?;
+    }
     if let Some(png) = figure {
         put("case.png", &png)?;
     }
