@@ -450,3 +450,35 @@ density0 = 1.0",
     let e = error("case = \"couette\"\n[scene]\nrho0 = 1.0\n");
     assert!(e.contains("unknown key"), "{e}");
 }
+
+#[test]
+fn a_scene_built_in_code_gets_the_same_checks_as_the_settings() {
+    // A library user can fill a Scene's physics directly, past the
+    // settings' validation: the run refuses what the engine would ignore.
+    let base = cases::scene(&settings("poiseuille")).unwrap();
+    let refused = |edit: &dyn Fn(&mut scene::Scene), key: &str| {
+        let mut s = base.clone();
+        edit(&mut s);
+        let e = scene::run(&s, &Silent).err().map(|e| e.to_string());
+        let e = e.unwrap_or_else(|| panic!("{key}: accepted"));
+        assert!(e.contains(key), "{key}: {e}");
+    };
+    use sph_std::config::{DensityMode, ViscosityForm};
+    use sph_std::scene::PressureForm;
+    refused(
+        &|s| {
+            s.physics.viscosity = ViscosityForm::Corrected;
+            s.physics.alpha = 0.1;
+        },
+        "alpha",
+    );
+    refused(&|s| s.physics.alpha = f64::NAN, "alpha");
+    refused(
+        &|s| {
+            s.physics.density = DensityMode::Summation;
+            s.physics.pressure_gradient = PressureForm::Corrected;
+        },
+        "pressure_gradient",
+    );
+    refused(&|s| s.physics.gravity_ramp = -1.0, "gravity_ramp");
+}

@@ -105,13 +105,21 @@ pub struct Acc<S: Space> {
     pub shift: S::Vector,
 }
 
-/// The scratch of [`Shifting`]: first-order gradients for its Taylor correction.
+/// The scratch of [`Shifting`]: first-order gradients for its Taylor
+/// correction, and what its free-surface limit reads.
 #[derive(Clone, Copy, Debug)]
 pub struct Gradients<S: Space> {
     /// Velocity gradient, `v[b] = d v / d x_b`.
     pub v: [S::Vector; 3],
     /// Density gradient.
     pub rho: S::Vector,
+    /// Divergence of position `-sum_j V_j r_ij . grad_i W_ij`: about the
+    /// dimension inside the fluid, less where the support is cut (summed
+    /// only with a free-surface limit).
+    pub div_r: S::Real,
+    /// `sum_j V_j grad_i W_ij`, pointing into the fluid at a free surface
+    /// (summed only with a free-surface limit).
+    pub inward: S::Vector,
 }
 
 impl<S: Space> Default for Gradients<S> {
@@ -119,6 +127,8 @@ impl<S: Space> Default for Gradients<S> {
         Self {
             v: [S::Vector::zero(); 3],
             rho: S::Vector::zero(),
+            div_r: S::Real::ZERO,
+            inward: S::Vector::zero(),
         }
     }
 }
@@ -1321,6 +1331,12 @@ pub struct Shifting<F> {
     pub inv_w_dx: F,
     /// Weight `R` of the anti-clumping part (0.2 in Sun et al. 2017).
     pub repulsion: F,
+    /// Free-surface limit: where the divergence of position is below this
+    /// threshold (the support is cut: a free surface), the shift keeps only
+    /// its part along the surface, so it cannot push particles out of the
+    /// fluid (Lind et al. 2012). 0: no limit, the default (bitwise the
+    /// unlimited term); [`Self::with_free_surface`] sets it.
+    pub surface: F,
 }
 
 impl<F: Real> Shifting<F> {
@@ -1336,7 +1352,16 @@ impl<F: Real> Shifting<F> {
             scale: c * u * h,
             inv_w_dx,
             repulsion: F::from_f64(0.2),
+            surface: F::ZERO,
         }
+    }
+
+    /// The same shifting, limited to the surface's tangent where the
+    /// divergence of position falls below `threshold` (Lind et al. 2012 use
+    /// 1.5 in 2D; the dimension itself inside a full support).
+    pub fn with_free_surface(mut self, threshold: F) -> Self {
+        self.surface = threshold;
+        self
     }
 }
 
@@ -1345,7 +1370,8 @@ impl<S: Space> Term<S> for Shifting<S::Real> {
     fn validate(&self) -> Result<()> {
         non_negative("shift scale", self.scale)?;
         non_negative("inv_w_dx", self.inv_w_dx)?;
-        non_negative("repulsion", self.repulsion)
+        non_negative("repulsion", self.repulsion)?;
+        non_negative("free-surface threshold", self.surface)
     }
     const NEEDS_W: bool = true;
     const NEEDS_F: bool = true;
@@ -1377,6 +1403,10 @@ impl<S: Space> Term<S> for Shifting<S::Real> {
             g.v[b] -= p.v_ij * (vol * p.grad[b]);
         }
         g.rho += p.grad * (vol * (f.rho[j] - d.rho));
+        if self.surface > S::Real::ZERO {
+            g.div_r -= p.r_ij.dot(p.grad) * vol;
+            g.inward += p.grad * vol;
+        }
     }
 
     /// A shifted particle samples the flow `u_s dt` away from where the fluid
@@ -1384,6 +1414,13 @@ impl<S: Space> Term<S> for Shifting<S::Real> {
     /// (Lind et al. 2012, Taylor expansion to first order).
     #[inline(always)]
     fn finish(&self, _k: &Consts<S>, _d: &Dest<S>, g: &Self::Scratch, acc: &mut Acc<S>) {
+        // At a free surface: the shift's part along the surface normal removed.
+        if g.div_r < self.surface {
+            let n2 = g.inward.norm2();
+            if n2 > S::Real::ZERO {
+                acc.shift -= g.inward * (acc.shift.dot(g.inward) / n2);
+            }
+        }
         for b in 0..S::DIM {
             acc.dv += g.v[b] * acc.shift[b];
         }

@@ -4,6 +4,7 @@
 mod common;
 
 use common::*;
+use sph_core::kernel::SmoothingKernel;
 use sph_core::prelude::*;
 use sph_core::terms::{Acc, Consts, Dest, Fields, Pair};
 
@@ -847,4 +848,100 @@ fn corrected_morris_viscosity_is_exact_for_quadratic_fields_on_any_arrangement()
     eprintln!("quadratic laplacian: corrected {corrected:e}, plain {plain:e}");
     assert!(corrected < 1e-9, "corrected: {corrected:e}");
     assert!(plain > 1e-3, "plain: {plain:e}");
+}
+
+/// Shifting for particle 0 of `x` (all neighbours within the support), by
+/// hand through the term's hooks, as a pass would run them.
+fn shift_of(t: &Shifting<f64>, x: &[V2], h: f64) -> V2 {
+    let kernel = SmoothingKernel::<D2<f64>, CubicSpline, Libm>::new(h).unwrap();
+    let n = x.len();
+    let v = vec![V2::zero(); n];
+    let (m, rho, p) = (vec![0.01; n], vec![1.0; n], vec![0.0; n]);
+    let f = Fields::<D2<f64>> {
+        x,
+        v: &v,
+        m: &m,
+        rho: &rho,
+        p: &p,
+    };
+    let k = Consts {
+        h,
+        eta2: 1e-4 * h * h,
+        c0: 10.0,
+    };
+    let d = Dest {
+        i: 0,
+        v: v[0],
+        m: m[0],
+        rho: rho[0],
+        p: p[0],
+    };
+    let mut acc = Acc::default();
+    let mut scratch = Default::default();
+    for j in 1..n {
+        let r_ij = x[0] - x[j];
+        let r2 = r_ij.norm2();
+        if r2 >= kernel.radius2() {
+            continue;
+        }
+        let (w, fr) = kernel.w_and_f(r2);
+        let pair = Pair {
+            j,
+            r_ij,
+            r2,
+            w,
+            f: fr,
+            grad: r_ij * fr,
+            v_ij: v[0] - v[j],
+        };
+        Term::<D2<f64>>::pair(t, &k, &d, &f, &pair, &mut acc);
+        Term::<D2<f64>>::pair_scratch(t, &k, &d, &f, &pair, &mut scratch);
+    }
+    Term::<D2<f64>>::finish(t, &k, &d, &scratch, &mut acc);
+    acc.shift
+}
+
+#[test]
+fn at_a_free_surface_shifting_keeps_to_the_tangent() {
+    // Particle 0 on the top row of a lattice (spacing 0.1, volumes 0.01)
+    // with nothing above: its cut support pushes it up, out of the fluid,
+    // unless the free-surface limit removes the part along the surface
+    // normal, estimated as sum_j V_j grad W_ij.
+    let dx = 0.1;
+    let h = 1.3 * dx;
+    let lattice = |centre: V2, rows: std::ops::RangeInclusive<i32>| {
+        let mut x = vec![centre];
+        for i in -4i32..=4 {
+            for j in rows.clone() {
+                if (i, j) != (0, 0) {
+                    x.push(V2::new([i as f64 * dx, j as f64 * dx]));
+                }
+            }
+        }
+        x
+    };
+    let kernel = SmoothingKernel::<D2<f64>, CubicSpline, Libm>::new(h).unwrap();
+    let free = Shifting::new(1.0, 1.0, h, kernel.w(dx * dx));
+    let limited = free.with_free_surface(1.5);
+    // On the lattice: the shift is all normal, and the limit removes it.
+    let x = lattice(V2::zero(), -4..=0);
+    let (a, b) = (shift_of(&free, &x, h), shift_of(&limited, &x, h));
+    assert!(a[1] > 0.0 && a[0].abs() < 1e-12 * a[1], "pushed up: {a:?}");
+    assert!(b.norm2() < 1e-24 * a.norm2(), "nothing left: {b:?}");
+    // Off the lattice: what is left is orthogonal to the normal estimate.
+    let x = lattice(V2::new([0.03, 0.01]), -4..=0);
+    let mut normal = V2::zero();
+    for xj in &x[1..] {
+        normal += kernel.gradient(x[0] - *xj) * 0.01;
+    }
+    let (a, b) = (shift_of(&free, &x, h), shift_of(&limited, &x, h));
+    assert!(
+        a.dot(normal) < 0.0,
+        "the free shift leaves the fluid: {a:?}"
+    );
+    assert!(b.dot(normal).abs() < 1e-12 * a.dot(normal).abs(), "{b:?}");
+    assert!(b.norm2() > 0.0);
+    // Inside the fluid (a full support) the limit changes nothing at all.
+    let x = lattice(V2::new([0.03, 0.01]), -4..=4);
+    assert_eq!(shift_of(&free, &x, h), shift_of(&limited, &x, h));
 }

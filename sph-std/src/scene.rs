@@ -602,6 +602,45 @@ fn check_scene(scene: &Scene) -> Result<()> {
             "3D scenes run with libm only",
         ));
     }
+    // What the settings check for the built-in cases, again for a scene
+    // built in code, so that no choice is silently ignored.
+    let p = &scene.physics;
+    if !(p.alpha >= 0.0 && p.alpha.is_finite()) {
+        return Err(Error::config(
+            "alpha",
+            p.alpha,
+            "must be finite and at least 0",
+        ));
+    }
+    if p.alpha > 0.0
+        && !matches!(
+            p.viscosity,
+            ViscosityForm::Morris | ViscosityForm::Artificial
+        )
+    {
+        return Err(Error::config(
+            "alpha",
+            p.alpha,
+            format!(
+                "an artificial viscosity is added to viscosity = \"morris\" only, not to \"{}\"",
+                p.viscosity
+            ),
+        ));
+    }
+    if p.pressure_gradient == PressureForm::Corrected && p.density == DensityMode::Summation {
+        return Err(Error::config(
+            "pressure_gradient",
+            p.pressure_gradient,
+            "corrected needs continuity density: use density = \"corrected\" or \"continuity\"",
+        ));
+    }
+    if !(p.gravity_ramp >= 0.0 && p.gravity_ramp.is_finite()) {
+        return Err(Error::config(
+            "gravity_ramp",
+            p.gravity_ramp,
+            "must be finite and at least 0 (0: no ramp)",
+        ));
+    }
     Ok(())
 }
 
@@ -770,12 +809,23 @@ where
     let g = BodyForce::<S> { g: g0 * f(k0) };
     let kernel = SmoothingKernel::<S, K, M>::new(f(h))?;
     let w_dx = kernel.w(f(scene.dx * scene.dx));
-    let shift = Shifting::new(
+    let mut shift = Shifting::new(
         f(scene.physics.shift_coefficient),
         f(scene.velocity_scale),
         f(h),
         w_dx,
     );
+    // A box with an open side has a free surface: there shifting keeps to
+    // the surface's tangent (the threshold on the divergence of position is
+    // Lind et al.'s 1.5 in 2D, the dimension minus a half in general).
+    let open = scene
+        .axes
+        .iter()
+        .take(scene.dim)
+        .any(|a| matches!(a, AxisSpec::Walls(lo, hi) if lo.is_none() || hi.is_none()));
+    if open {
+        shift = shift.with_free_surface(f(scene.dim as f64 - 0.5));
+    }
     // Continuity density always carries delta-SPH diffusion (zero by
     // default), leaving alone the hydrostatic density gradient of the body
     // force's part along bounded axes (along a periodic axis the pressure is
