@@ -612,33 +612,44 @@ fn check_scene(scene: &Scene) -> Result<()> {
             "must be finite and at least 0",
         ));
     }
-    if p.alpha > 0.0
-        && !matches!(
-            p.viscosity,
-            ViscosityForm::Morris | ViscosityForm::Artificial
-        )
-    {
-        return Err(Error::config(
-            "alpha",
-            p.alpha,
-            format!(
-                "an artificial viscosity is added to viscosity = \"morris\" only, not to \"{}\"",
-                p.viscosity
-            ),
-        ));
-    }
-    if p.pressure_gradient == PressureForm::Corrected && p.density == DensityMode::Summation {
-        return Err(Error::config(
-            "pressure_gradient",
-            p.pressure_gradient,
-            "corrected needs continuity density: use density = \"corrected\" or \"continuity\"",
-        ));
-    }
+    check_forms(p.viscosity, p.alpha, p.density, p.pressure_gradient)?;
     if !(p.gravity_ramp >= 0.0 && p.gravity_ramp.is_finite()) {
         return Err(Error::config(
             "gravity_ramp",
             p.gravity_ramp,
             "must be finite and at least 0 (0: no ramp)",
+        ));
+    }
+    Ok(())
+}
+
+/// The combinations of forms the engine has no meaning for: an artificial
+/// viscosity on top of a form other than Morris (or artificial itself), and
+/// the corrected pressure gradient with summation density. Shared by the
+/// settings' validation and [`run`] (for scenes built in code).
+///
+/// # Errors
+/// [`Error::Config`] naming the key, its value and the rule.
+pub(crate) fn check_forms(
+    viscosity: ViscosityForm,
+    alpha: f64,
+    density: DensityMode,
+    pressure_gradient: PressureForm,
+) -> Result<()> {
+    if alpha > 0.0 && !matches!(viscosity, ViscosityForm::Morris | ViscosityForm::Artificial) {
+        return Err(Error::config(
+            "alpha",
+            alpha,
+            format!(
+                "an artificial viscosity is added to viscosity = \"morris\" only, not to \"{viscosity}\""
+            ),
+        ));
+    }
+    if pressure_gradient == PressureForm::Corrected && density == DensityMode::Summation {
+        return Err(Error::config(
+            "pressure_gradient",
+            pressure_gradient,
+            "corrected needs continuity density: use density = \"corrected\" or \"continuity\"",
         ));
     }
     Ok(())

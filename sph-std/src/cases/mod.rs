@@ -467,21 +467,12 @@ impl Settings {
             self.alpha,
             "must be between 0 and 10",
         )?;
-        if self.alpha > 0.0
-            && !matches!(
-                self.viscosity,
-                ViscosityForm::Morris | ViscosityForm::Artificial
-            )
-        {
-            return Err(Error::config(
-                "alpha",
-                self.alpha,
-                format!(
-                    "an artificial viscosity is added to viscosity = \"morris\" only, not to \"{}\"",
-                    self.viscosity
-                ),
-            ));
-        }
+        crate::scene::check_forms(
+            self.viscosity,
+            self.alpha,
+            self.density,
+            self.pressure_gradient,
+        )?;
         if let Some(ramp) = self.gravity_ramp {
             check(
                 ramp.is_finite() && ramp >= 0.0,
@@ -489,15 +480,6 @@ impl Settings {
                 ramp,
                 "must be finite and at least 0 (0: no ramp)",
             )?;
-        }
-        if self.pressure_gradient == PressureForm::Corrected
-            && self.density == DensityMode::Summation
-        {
-            return Err(Error::config(
-                "pressure_gradient",
-                self.pressure_gradient,
-                "corrected needs continuity density: use density = \"corrected\" or \"continuity\"",
-            ));
         }
         for (key, set, case) in [
             (
