@@ -13,6 +13,18 @@
 //! Ghosts are sources in the sums, never destinations: they are rebuilt from
 //! their fluid images before every evaluation and never integrated.
 //!
+//! Wall particles ([`Domain::with_wall_particles`]; Adami, Hu & Adams
+//! 2012) replace the mirrors of the planar walls: a fixed lattice behind
+//! the walls, written into the same tail after the mirrored ghosts and
+//! marked [`WALL_PARTICLE`]. They take their values from the fluid near
+//! them before each pass (see [`crate::solver`]): velocity `2 V_w - v~`
+//! (no-slip; free slip reverses only the normal part) from the Shepard
+//! average `v~` of the fluid velocity, pressure
+//! `(sum_f p_f W_wf + g . sum_f rho_f r_wf W_wf) / sum_f W_wf`, density
+//! from the equation of state, mass `rho0` times their lattice volume.
+//! Unlike a mirror image they stay put as a fluid particle nears the
+//! wall, so their repulsion does not vanish at the wall.
+//!
 //! Running out of reserved capacity is [`Error::CapacityExceeded`] with the
 //! number of ghosts needed, not a panic.
 
@@ -22,13 +34,20 @@ use crate::real::Real;
 use crate::shape::{narrow, widen, BODY_FLAG};
 use crate::space::{Space, VectorOps};
 
+/// Marks a ghost record as a wall particle; the low bits then name the one
+/// wall (bit `2a` or `2a + 1`) whose velocity rule it follows: the wall it
+/// lies deepest behind.
+pub const WALL_PARTICLE: u8 = 0x40;
+
 /// One ghost: its fluid source and which mirrors produced it.
 ///
 /// Bit `2a` of `mirrors` is the wall on the lower side of axis `a`, bit
-/// `2a + 1` the one on the upper side.
+/// `2a + 1` the one on the upper side; [`crate::shape::BODY_FLAG`] marks a
+/// shaped wall's image and [`WALL_PARTICLE`] a wall particle.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Ghost {
-    /// Index of the fluid particle this ghost mirrors.
+    /// Index of the fluid particle this ghost mirrors (0 for a wall
+    /// particle, which has none).
     pub source: u32,
     /// Mirrors applied (see the type docs).
     pub mirrors: u8,
@@ -233,6 +252,165 @@ pub fn curvature_correction<S: Space>(domain: &Domain<S>, x: S::Vector, mirrors:
     dv
 }
 
+/// The wall-particle lattice along one axis: `lower` layers behind the
+/// lower wall, `inside` points across the box, `upper` layers behind the
+/// upper wall.
+#[derive(Clone, Copy, Debug)]
+struct AxisLattice {
+    lower: usize,
+    inside: usize,
+    upper: usize,
+    /// Spacing across the box (the extent over `inside`).
+    step: f64,
+    /// Spacing of the layers behind the walls.
+    spacing: f64,
+    extent: f64,
+}
+
+impl AxisLattice {
+    fn new<S: Space>(domain: &Domain<S>, a: usize, spacing: f64, radius: f64) -> Self {
+        let extent = domain.extent()[a].to_f64();
+        let layers = |side| {
+            if domain.wall(a, side).is_none() {
+                return 0;
+            }
+            let mut k = 0usize;
+            while (k as f64 + 0.5) * spacing < radius {
+                k += 1;
+            }
+            k
+        };
+        let inside = crate::math::f64s::floor(extent / spacing + 0.5).max(1.0) as usize;
+        Self {
+            lower: layers(Side::Lower),
+            inside,
+            upper: layers(Side::Upper),
+            step: extent / inside as f64,
+            spacing,
+            extent,
+        }
+    }
+
+    fn len(&self) -> usize {
+        self.lower + self.inside + self.upper
+    }
+
+    /// Coordinate, cell width and depth behind a wall (with the wall's
+    /// bit offset: 0 lower, 1 upper) of lattice index `k`.
+    fn point(&self, k: usize) -> (f64, f64, Option<(f64, u8)>) {
+        if k < self.lower {
+            let d = ((self.lower - 1 - k) as f64 + 0.5) * self.spacing;
+            (-d, self.spacing, Some((d, 0)))
+        } else if k < self.lower + self.inside {
+            (
+                (((k - self.lower) as f64) + 0.5) * self.step,
+                self.step,
+                None,
+            )
+        } else {
+            let d = ((k - self.lower - self.inside) as f64 + 0.5) * self.spacing;
+            (self.extent + d, self.spacing, Some((d, 1)))
+        }
+    }
+}
+
+/// Calls `f(position, wall bit, volume)` for every wall particle of the
+/// box's planar walls ([`Domain::with_wall_particles`]) within `radius` of
+/// the box, in a fixed order; does nothing without wall particles.
+pub fn for_each_wall_particle<S: Space>(
+    domain: &Domain<S>,
+    radius: S::Real,
+    mut f: impl FnMut(S::Vector, u8, f64),
+) {
+    let Some(spacing) = domain.wall_particles() else {
+        return;
+    };
+    if !domain.has_walls() {
+        return;
+    }
+    let (spacing, radius) = (spacing.to_f64(), radius.to_f64());
+    let axes: [AxisLattice; 3] = core::array::from_fn(|a| {
+        if a < S::DIM {
+            AxisLattice::new(domain, a, spacing, radius)
+        } else {
+            AxisLattice {
+                lower: 0,
+                inside: 1,
+                upper: 0,
+                step: 1.0,
+                spacing: 1.0,
+                extent: 1.0,
+            }
+        }
+    });
+    let radius2 = radius * radius;
+    for k2 in 0..axes[2].len() {
+        let p2 = axes[2].point(k2);
+        for k1 in 0..axes[1].len() {
+            let p1 = axes[1].point(k1);
+            let outer_behind = p1.2.is_some() || p2.2.is_some();
+            let x0 = &axes[0];
+            let skip = if outer_behind {
+                0..0
+            } else {
+                x0.lower..x0.lower + x0.inside
+            };
+            for k0 in (0..x0.len()).filter(|k| !skip.contains(k)) {
+                let p0 = x0.point(k0);
+                let points = [p0, p1, p2];
+                let mut depth2 = 0.0;
+                let mut deepest: Option<(f64, u8)> = None;
+                let mut volume = 1.0;
+                let mut x = S::Vector::zero();
+                for (a, &(c, width, behind)) in points.iter().enumerate().take(S::DIM) {
+                    x[a] = S::Real::from_f64(c);
+                    volume *= width;
+                    if let Some((d, side)) = behind {
+                        depth2 += d * d;
+                        if deepest.is_none_or(|(best, _)| d > best) {
+                            deepest = Some((d, 2 * a as u8 + side));
+                        }
+                    }
+                }
+                if let Some((_, bit)) = deepest {
+                    if depth2 < radius2 {
+                        f(x, bit, volume);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Number of wall particles [`generate`] writes for `domain` at `radius`.
+pub fn wall_particle_count<S: Space>(domain: &Domain<S>, radius: S::Real) -> usize {
+    let mut count = 0;
+    for_each_wall_particle(domain, radius, |_, _, _| count += 1);
+    count
+}
+
+/// The lattice volume of the wall particle at `x` (see
+/// [`for_each_wall_particle`]): the layer spacing across each wall it lies
+/// behind, the box's own lattice step along the others.
+pub fn wall_particle_volume<S: Space>(domain: &Domain<S>, x: S::Vector) -> f64 {
+    let Some(spacing) = domain.wall_particles() else {
+        return 0.0;
+    };
+    let spacing = spacing.to_f64();
+    let extent = domain.extent();
+    let mut volume = 1.0;
+    for a in 0..S::DIM {
+        let l = extent[a].to_f64();
+        let c = x[a].to_f64();
+        volume *= if c < 0.0 || c > l {
+            spacing
+        } else {
+            l / crate::math::f64s::floor(l / spacing + 0.5).max(1.0)
+        };
+    }
+    volume
+}
+
 /// Writes the ghosts of the fluid particles `x[..n_fluid]` into
 /// `x[n_fluid..]` and `ghosts[..]`, and returns how many there are.
 ///
@@ -262,7 +440,7 @@ pub fn generate<S: Space>(
         // Per axis: "no mirror", plus each wall closer than the radius.
         let mut options = [[0u8; 3]; 3];
         let mut n_opt = [1usize; 3];
-        for a in 0..S::DIM {
+        for a in (0..S::DIM).filter(|_| domain.wall_particles().is_none()) {
             if domain.wall(a, Side::Lower).is_some() && xi[a] < radius {
                 options[a][n_opt[a]] = 1 << (2 * a);
                 n_opt[a] += 1;
@@ -321,6 +499,16 @@ pub fn generate<S: Space>(
             }
         }
     }
+    for_each_wall_particle(domain, radius, |xw, bit, _| {
+        if count < available {
+            tail[count] = xw;
+            ghosts[count] = Ghost {
+                source: 0,
+                mirrors: WALL_PARTICLE | (1 << bit),
+            };
+        }
+        count += 1;
+    });
     if count > available {
         return Err(Error::CapacityExceeded {
             buffer: "ghosts",
@@ -421,6 +609,55 @@ mod tests {
         assert!(images.contains(&V2::new([0.05, -0.05])));
         assert!(images.contains(&V2::new([-0.05, -0.05])));
         assert!(ghosts[..3].iter().all(|g| g.source == 0));
+    }
+
+    #[test]
+    fn wall_particles_fill_a_shell_of_the_support_radius_around_the_box() {
+        // A closed 1 x 1 box, spacing 0.1, radius 0.25: two layers (0.05
+        // and 0.15 deep) along each of the four sides, 10 points along
+        // each, and the 2 x 2 corner blocks (all within 0.25 of the corner).
+        let walls = |d: Domain<D2<f64>>| {
+            let mut d = d;
+            for a in 0..2 {
+                for side in [Side::Lower, Side::Upper] {
+                    d = d.with_wall(a, side, Wall::no_slip()).unwrap();
+                }
+            }
+            d.with_wall_particles(0.1).unwrap()
+        };
+        let d = walls(Domain::new(V2::new([0.0, 0.0]), V2::new([1.0, 1.0])).unwrap());
+        assert_eq!(wall_particle_count(&d, 0.25), 4 * 10 * 2 + 4 * 4);
+        let mut volume = 0.0;
+        let mut corner_bits = std::vec::Vec::new();
+        for_each_wall_particle(&d, 0.25, |x, bit, v| {
+            volume += v;
+            assert!(x[0] < 0.0 || x[0] > 1.0 || x[1] < 0.0 || x[1] > 1.0);
+            assert!((wall_particle_volume(&d, x) - v).abs() < 1e-15);
+            if (x[0] + 0.15).abs() < 1e-12 && (x[1] + 0.05).abs() < 1e-12 {
+                corner_bits.push(bit);
+            }
+        });
+        // The shell's area: (1.4^2 - 1) in the lattice's cells.
+        assert!((volume - (1.4f64 * 1.4 - 1.0)).abs() < 1e-12, "{volume}");
+        // Deeper behind the x wall (0.15) than the y wall: the x wall's rule.
+        assert_eq!(corner_bits, [0]);
+        // A box 1.03 wide: 10 points along it, 0.103 apart, no gap.
+        let d = walls(Domain::new(V2::new([0.0, 0.0]), V2::new([1.03, 1.0])).unwrap());
+        let mut xs = std::vec::Vec::new();
+        for_each_wall_particle(&d, 0.25, |x, _, _| {
+            if (x[1] + 0.05).abs() < 1e-12 && x[0] > 0.0 && x[0] < 1.03 {
+                xs.push(x[0]);
+            }
+        });
+        assert_eq!(xs.len(), 10);
+        assert!((xs[1] - xs[0] - 0.103).abs() < 1e-12);
+        // With wall particles the planar walls mirror nothing.
+        let mut x = [V2::default(); 200];
+        x[0] = V2::new([0.05, 0.05]);
+        let mut ghosts = [Ghost::default(); 200];
+        let n = generate(&d, 0.25, &mut x, 1, &mut ghosts).unwrap();
+        assert_eq!(n, wall_particle_count(&d, 0.25));
+        assert!(ghosts[..n].iter().all(|g| g.mirrors & WALL_PARTICLE != 0));
     }
 
     #[test]

@@ -162,6 +162,9 @@ pub struct Domain<S: Space> {
     n_shaped: usize,
     /// Body force per unit mass the ghosts' pressure balances, if any.
     gravity: Option<S::Vector>,
+    /// Spacing of the fixed wall particles that replace mirrored ghosts at
+    /// the planar walls, if chosen ([`Self::with_wall_particles`]).
+    wall_spacing: Option<S::Real>,
 }
 
 fn axis_error(axis: usize) -> Error {
@@ -206,6 +209,7 @@ impl<S: Space> Domain<S> {
             shaped: [None; MAX_SHAPED_WALLS],
             n_shaped: 0,
             gravity: None,
+            wall_spacing: None,
         })
     }
 
@@ -328,6 +332,36 @@ impl<S: Space> Domain<S> {
         self.gravity
     }
 
+    /// Replaces the mirrored ghosts of every planar wall by fixed wall
+    /// particles on a lattice of the given spacing behind the walls (the
+    /// generalised wall boundary of Adami, Hu & Adams 2012;
+    /// [`crate::boundary`]): layers `spacing / 2, 3 spacing / 2, ...` deep
+    /// out to the support radius, corners filled. Along a wall the lattice
+    /// spacing is the box's extent divided by the nearest whole number of
+    /// spacings, so it closes on itself. Give the fluid's particle spacing.
+    /// Shaped walls keep their mirrored ghosts.
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] if the spacing is not positive and finite.
+    pub fn with_wall_particles(mut self, spacing: S::Real) -> Result<Self> {
+        if !(spacing.is_finite() && spacing > S::Real::ZERO) {
+            return Err(Error::InvalidParameter {
+                name: "wall_spacing",
+                value: spacing.to_f64(),
+                rule: "the wall particles' spacing must be positive and finite",
+            });
+        }
+        self.wall_spacing = Some(spacing);
+        Ok(self)
+    }
+
+    /// The spacing of the wall particles, if the planar walls use them
+    /// ([`Self::with_wall_particles`]).
+    #[inline]
+    pub fn wall_particles(&self) -> Option<S::Real> {
+        self.wall_spacing
+    }
+
     /// Number of shaped walls.
     #[inline]
     pub fn shaped_count(&self) -> usize {
@@ -366,6 +400,16 @@ impl<S: Space> Domain<S> {
     pub fn validate(&self) -> Result<()> {
         for a in 0..S::DIM {
             for w in self.walls[a].iter().flatten() {
+                if self.wall_spacing.is_some()
+                    && (w.reflection == Reflection::Point || w.curvature != S::Vector::zero())
+                {
+                    return Err(Error::InvalidParameter {
+                        name: "wall.reflection",
+                        value: a as f64,
+                        rule: "wall particles take their velocity from the fluid near them: \
+                               point reflection and a velocity curvature are mirror-ghost rules",
+                    });
+                }
                 if w.reflection == Reflection::Point
                     && (0..S::DIM).any(|b| b != a && !self.periodic[b])
                 {

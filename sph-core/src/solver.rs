@@ -384,6 +384,33 @@ struct Arrays<'a, S: Space> {
     shift: &'a mut [S::Vector],
 }
 
+/// The fluid particles within the kernel's support of a point, for the
+/// wall particles' gather (serial, in cell order: the same sums for any
+/// thread count).
+struct FluidNear<'s, S: Space, K: Kernel, M: Math<S::Real>> {
+    kernel: &'s SmoothingKernel<S, K, M>,
+    grid: &'s Grid<S>,
+    cells: CellView<'s>,
+    x: &'s [S::Vector],
+    n: usize,
+}
+
+impl<S: Space, K: Kernel, M: Math<S::Real>> FluidNear<'_, S, K, M> {
+    /// Calls `f(j, W, r_ij)` for each fluid particle `j` with `W > 0`
+    /// around particle `i` of the cell list.
+    fn visit(&self, i: usize, mut f: impl FnMut(usize, S::Real, S::Vector)) {
+        let n = self.n;
+        self.cells.visit_coded(self.grid, self.x, i, |j, _, d, r2| {
+            if j < n {
+                let w = self.kernel.w(r2);
+                if w > S::Real::ZERO {
+                    f(j, w, d);
+                }
+            }
+        });
+    }
+}
+
 /// Bits of a neighbour-list entry that hold the particle index; the six bits
 /// above hold the periodic image (two per axis, as in
 /// [`CellView::for_each_neighbour_coded`]).
@@ -867,7 +894,11 @@ where
         let mirror_bits = (1u16 << (2 * S::DIM)) - 1;
         for g in &self.a.ghosts[..state.n_ghost] {
             let shaped = g.mirrors & crate::shape::BODY_FLAG != 0;
-            let known = if shaped {
+            let wall = g.mirrors & boundary::WALL_PARTICLE != 0;
+            let known = if wall {
+                self.domain.wall_particles().is_some()
+                    && (u16::from(g.mirrors & !boundary::WALL_PARTICLE) & !mirror_bits) == 0
+            } else if shaped {
                 usize::from(g.mirrors & !crate::shape::BODY_FLAG) < self.domain.shaped_count()
             } else {
                 u16::from(g.mirrors) & !mirror_bits == 0
@@ -1212,6 +1243,16 @@ where
         let n = self.n;
         self.a.m[..n].fill(S::Real::ONE);
         self.sync_ghost_kinematics(false);
+        if let Some(spacing) = self.domain.wall_particles() {
+            // In units of the fluid's volume, as the fluid's unit masses.
+            let unit = (0..S::DIM).fold(1.0, |u, _| u * spacing.to_f64());
+            for (k, g) in self.a.ghosts[..self.n_ghost].iter().enumerate() {
+                if g.mirrors & boundary::WALL_PARTICLE != 0 {
+                    let volume = boundary::wall_particle_volume(&self.domain, self.a.x[n + k]);
+                    self.a.m[n + k] = S::Real::from_f64(volume / unit);
+                }
+            }
+        }
         self.run_density(exec, &SummationDensity)?;
         for i in 0..n {
             self.a.m[i] = rho0 / self.a.rho_aux[i];
@@ -1232,18 +1273,42 @@ where
 
     fn sync_ghost_kinematics(&mut self, homogeneous: bool) {
         let n = self.n;
+        let total = n + self.n_ghost;
         let (fluid_v, ghost_v) = self.a.ve.split_at_mut(n);
         let (fluid_m, ghost_m) = self.a.m.split_at_mut(n);
         let curved = !homogeneous && self.curved_walls;
+        let rho0 = self.params.eos.density::<M>(S::Real::ZERO, S::Real::ONE);
+        let near = FluidNear {
+            kernel: &self.kernel,
+            grid: &self.grid,
+            cells: self.cells.view(),
+            x: &self.a.x[..total],
+            n,
+        };
         for (k, g) in self.a.ghosts[..self.n_ghost].iter().enumerate() {
+            if g.mirrors & boundary::WALL_PARTICLE != 0 {
+                // The Shepard average of the fluid velocity, through the rule
+                // of the wall the particle lies behind.
+                let (mut sum_w, mut sum_v) = (S::Real::ZERO, S::Vector::zero());
+                near.visit(n + k, |j, w, _| {
+                    sum_w += w;
+                    sum_v += fluid_v[j] * w;
+                });
+                let average = if sum_w > S::Real::ZERO {
+                    sum_v * (S::Real::ONE / sum_w)
+                } else {
+                    S::Vector::zero()
+                };
+                let bits = g.mirrors & !boundary::WALL_PARTICLE;
+                ghost_v[k] = boundary::mirror_velocity(&self.domain, average, bits, homogeneous);
+                let volume = boundary::wall_particle_volume(&self.domain, near.x[n + k]);
+                ghost_m[k] = rho0 * S::Real::from_f64(volume);
+                continue;
+            }
             let s = g.source as usize;
-            if let Some((vg, jacobian)) = boundary::shaped_ghost(
-                &self.domain,
-                self.a.x[s],
-                fluid_v[s],
-                g.mirrors,
-                homogeneous,
-            ) {
+            if let Some((vg, jacobian)) =
+                boundary::shaped_ghost(&self.domain, near.x[s], fluid_v[s], g.mirrors, homogeneous)
+            {
                 ghost_v[k] = vg;
                 ghost_m[k] = fluid_m[s] * jacobian;
                 continue;
@@ -1251,7 +1316,7 @@ where
             ghost_v[k] =
                 boundary::mirror_velocity(&self.domain, fluid_v[s], g.mirrors, homogeneous);
             if curved {
-                ghost_v[k] += boundary::curvature_correction(&self.domain, self.a.x[s], g.mirrors);
+                ghost_v[k] += boundary::curvature_correction(&self.domain, near.x[s], g.mirrors);
             }
             ghost_m[k] = fluid_m[s];
         }
@@ -1261,6 +1326,9 @@ where
         let n = self.n;
         let (fluid, ghosts) = self.a.x.split_at_mut(n);
         for (k, g) in self.a.ghosts[..self.n_ghost].iter().enumerate() {
+            if g.mirrors & boundary::WALL_PARTICLE != 0 {
+                continue;
+            }
             let image =
                 boundary::mirror_position(&self.domain, fluid[g.source as usize], g.mirrors);
             // Keep the periodic image the neighbour lists were built with.
@@ -1270,22 +1338,48 @@ where
 
     fn sync_ghost_thermo(&mut self) {
         let n = self.n;
+        let total = n + self.n_ghost;
         let (fluid_rho, ghost_rho) = self.a.rho.split_at_mut(n);
         let (fluid_p, ghost_p) = self.a.p.split_at_mut(n);
-        let ghosts = self.a.ghosts[..self.n_ghost].iter().enumerate();
-        let Some(gravity) = self.domain.wall_gravity() else {
-            for (k, g) in ghosts {
-                let s = g.source as usize;
+        let gravity = self.domain.wall_gravity();
+        let eos = self.params.eos;
+        let near = FluidNear {
+            kernel: &self.kernel,
+            grid: &self.grid,
+            cells: self.cells.view(),
+            x: &self.a.x[..total],
+            n,
+        };
+        for (k, g) in self.a.ghosts[..self.n_ghost].iter().enumerate() {
+            let s = g.source as usize;
+            if g.mirrors & boundary::WALL_PARTICLE != 0 {
+                // p_w = (sum_f p_f W + g . sum_f rho_f r_wf W) / sum_f W.
+                let (mut sum_w, mut sum_p, mut sum_r) =
+                    (S::Real::ZERO, S::Real::ZERO, S::Vector::zero());
+                near.visit(n + k, |j, w, r_wf| {
+                    sum_w += w;
+                    sum_p += fluid_p[j] * w;
+                    sum_r += r_wf * (fluid_rho[j] * w);
+                });
+                let mut p = S::Real::ZERO;
+                if sum_w > S::Real::ZERO {
+                    p = sum_p;
+                    if let Some(g) = gravity {
+                        p += g.dot(sum_r);
+                    }
+                    p *= S::Real::ONE / sum_w;
+                }
+                ghost_p[k] = p;
+                ghost_rho[k] = eos.density::<M>(p, eos.density::<M>(S::Real::ZERO, S::Real::ONE));
+                continue;
+            }
+            let Some(gravity) = gravity else {
                 ghost_rho[k] = fluid_rho[s];
                 ghost_p[k] = fluid_p[s];
-            }
-            return;
-        };
-        // The wall's normal momentum balance (`Domain::with_wall_gravity`).
-        let eos = self.params.eos;
-        for (k, g) in ghosts {
-            let s = g.source as usize;
-            let offset = boundary::image_offset(&self.domain, self.a.x[s], g.mirrors);
+                continue;
+            };
+            // The wall's normal momentum balance (`Domain::with_wall_gravity`).
+            let offset = boundary::image_offset(&self.domain, near.x[s], g.mirrors);
             let p = fluid_p[s] + fluid_rho[s] * gravity.dot(offset);
             ghost_p[k] = p;
             ghost_rho[k] = eos.density::<M>(p, fluid_rho[s]);
