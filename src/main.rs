@@ -13,7 +13,7 @@ use sph_std::config::{
 use sph_std::error::Result;
 use sph_std::output::VtkEncoding;
 use sph_std::scene::{
-    EosForm, PressureForm, Regularise, RunControl, RunRecord, Stop, WallPressure,
+    EosForm, PressureForm, Regularise, RunControl, RunRecord, Stop, WallBoundary, WallPressure,
 };
 use sph_std::{bench, checkpoint, couette, output, progress, report, studies};
 
@@ -196,6 +196,10 @@ struct RunArgs {
     /// Wall ghost pressure: hydrostatic (balances the body force) or mirror.
     #[arg(long, value_name = "RULE", value_parser = parse_name::<WallPressure>)]
     wall_pressure: Option<WallPressure>,
+    /// Planar walls: mirror (mirrored ghosts) or particles (fixed wall
+    /// particles with values from the fluid, Adami et al. 2012).
+    #[arg(long, value_name = "METHOD", value_parser = parse_name::<WallBoundary>)]
+    wall_boundary: Option<WallBoundary>,
     /// Pressure gradient: symmetric, or corrected (exact for linear pressure
     /// on any arrangement; continuity density only).
     #[arg(long, value_name = "FORM", value_parser = parse_name::<PressureForm>)]
@@ -287,6 +291,7 @@ impl RunArgs {
             density_diffusion,
             dt_factor,
             wall_pressure,
+            wall_boundary,
             pressure_gradient,
             eos,
             alpha,

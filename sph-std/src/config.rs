@@ -141,6 +141,21 @@ named_enum!(
 );
 
 named_enum!(
+    /// How the box's planar walls act on the fluid.
+    WallBoundary {
+        /// Mirrored ghosts: each fluid particle near a wall has an image
+        /// behind it (`docs/physics.md` 5.1); exact for planar walls on an
+        /// aligned lattice, the channel cases' choice.
+        Mirror => "mirror",
+        /// Fixed wall particles behind the walls with values from the
+        /// fluid near them (Adami, Hu & Adams 2012; `docs/physics.md`
+        /// 5.3): their repulsion does not vanish as a particle reaches the
+        /// wall, which a free-surface flow driven at a wall needs.
+        Particles => "particles",
+    }
+);
+
+named_enum!(
     /// The equation of state of the scenes (`sph_core::eos::Eos`).
     EosForm {
         /// `p = c0^2 (rho - rho0) + p_b`: the channel and vortex flows.

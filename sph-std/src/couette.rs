@@ -27,7 +27,7 @@ use crate::config::{CouetteConfig, KernelName, ViscosityForm};
 use crate::error::{Error, Result};
 use crate::scene::{
     AxisSpec, EosForm, Monitor, Physics, PressureForm, Region, Regularise, Scene, Stop,
-    WallPressure, WallSpec,
+    WallBoundary, WallPressure, WallSpec,
 };
 
 /// Verlet skin of the neighbour lists (fraction of the support radius).
@@ -308,6 +308,7 @@ pub fn scene(cfg: &CouetteConfig) -> Scene {
             dt_factor: cfg.dt_factor,
             // No body force: both rules give the same ghosts.
             wall_pressure: WallPressure::Mirror,
+            wall_boundary: WallBoundary::Mirror,
             pressure_gradient: PressureForm::Symmetric,
         },
         output_times: cfg.schedule(),

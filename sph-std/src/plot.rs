@@ -567,6 +567,109 @@ pub fn speed_scatter_png(
     encode_png(&buffer, w, h)
 }
 
+/// Particles of 2D frames in a row of panels, coloured by a field on one
+/// common scale (blue low, red high): `panels` pairs each frame with its
+/// title, `value(frame, k)` is particle `k`'s value, `bounds` the box
+/// `[x0, x1, y0, y1]` every panel shows.
+///
+/// # Errors
+/// If drawing fails.
+pub fn field_panels_png(
+    panels: &[(&crate::scene::Frame, String)],
+    bounds: [f64; 4],
+    value: impl Fn(&crate::scene::Frame, usize) -> f64,
+    label: &str,
+) -> Result<Vec<u8>> {
+    ensure_font();
+    let side = 420u32;
+    let (w, h) = (side * panels.len().max(1) as u32, side + 40);
+    let mut buffer = vec![255u8; (w * h * 3) as usize];
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for (f, _) in panels {
+        for k in 0..f.x.len() {
+            let v = value(f, k);
+            if v.is_finite() {
+                lo = lo.min(v);
+                hi = hi.max(v);
+            }
+        }
+    }
+    if hi <= lo {
+        (lo, hi) = if lo.is_finite() {
+            (lo, lo + 1.0)
+        } else {
+            (0.0, 1.0)
+        };
+    }
+    drawable(bounds[0], bounds[1], "x")?;
+    drawable(bounds[2], bounds[3], "y")?;
+    {
+        let root = BitMapBackend::with_buffer(&mut buffer, (w, h)).into_drawing_area();
+        root.fill(&WHITE).map_err(plot_error)?;
+        let titled = root
+            .titled(
+                &format!(
+                    "{label}: {} (blue) to {} (red)",
+                    tick_label(lo),
+                    tick_label(hi)
+                ),
+                ("sans-serif", 20),
+            )
+            .map_err(plot_error)?;
+        let areas = titled.split_evenly((1, panels.len().max(1)));
+        for ((f, title), area) in panels.iter().zip(&areas) {
+            let mut chart = ChartBuilder::on(area)
+                .caption(title.as_str(), ("sans-serif", 16))
+                .margin(8)
+                .x_label_area_size(25)
+                .y_label_area_size(30)
+                .build_cartesian_2d(bounds[0]..bounds[1], bounds[2]..bounds[3])
+                .map_err(plot_error)?;
+            chart
+                .configure_mesh()
+                .disable_mesh()
+                .x_label_formatter(&|v| tick_label(*v))
+                .y_label_formatter(&|v| tick_label(*v))
+                .label_style(("sans-serif", 12))
+                .draw()
+                .map_err(plot_error)?;
+            chart
+                .draw_series((0..f.x.len()).map(|k| {
+                    let s = ((value(f, k) - lo) / (hi - lo)).clamp(0.0, 1.0);
+                    let color = HSLColor(0.66 * (1.0 - s), 0.9, 0.5);
+                    Circle::new((f.x[k][0], f.x[k][1]), 1, color.filled())
+                }))
+                .map_err(plot_error)?;
+        }
+        root.present().map_err(plot_error)?;
+    }
+    encode_png(&buffer, w, h)
+}
+
+/// PNG images stacked top to bottom on a white background, centred.
+///
+/// # Errors
+/// If an image does not decode or the result does not encode.
+pub fn stack_png(images: &[Vec<u8>]) -> Result<Vec<u8>> {
+    let decoded = images
+        .iter()
+        .map(|png| {
+            image::load_from_memory(png)
+                .map(|i| i.to_rgb8())
+                .map_err(plot_error)
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let w = decoded.iter().map(|i| i.width()).max().unwrap_or(1);
+    let h = decoded.iter().map(|i| i.height()).sum::<u32>().max(1);
+    let mut out = image::RgbImage::from_pixel(w, h, image::Rgb([255, 255, 255]));
+    let mut y = 0;
+    for i in &decoded {
+        image::imageops::replace(&mut out, i, i64::from((w - i.width()) / 2), i64::from(y));
+        y += i.height();
+    }
+    encode_png(out.as_raw(), w, h)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -33,7 +33,7 @@ use sph_core::space::{Space, VectorOps};
 
 use crate::checkpoint::Checkpoint;
 use crate::config::{DensityMode, KernelName, MathBackend, Precision, ViscosityForm};
-pub use crate::config::{EosForm, PressureForm, WallPressure};
+pub use crate::config::{EosForm, PressureForm, WallBoundary, WallPressure};
 use crate::couette::{Progress, SKIN};
 use crate::driver::{Buffers, Rayon};
 use crate::error::{Error, Result};
@@ -197,6 +197,8 @@ pub struct Physics {
     pub dt_factor: f64,
     /// What the wall ghosts' pressure balances.
     pub wall_pressure: WallPressure,
+    /// Mirrored ghosts or fixed wall particles at the box's planar walls.
+    pub wall_boundary: WallBoundary,
     /// The pressure-gradient form (continuity density only).
     pub pressure_gradient: PressureForm,
 }
@@ -578,12 +580,13 @@ fn check_scene(scene: &Scene) -> Result<()> {
         ));
     }
     let mut last = 0.0;
-    for &t in &scene.output_times {
-        if !(t > last && t.is_finite()) {
+    for (k, &t) in scene.output_times.iter().enumerate() {
+        // The first may be 0: the initial state, written before any step.
+        if !((t > last || (k == 0 && t == 0.0)) && t.is_finite()) {
             return Err(Error::config(
                 "output_times",
                 t,
-                "output times must be positive, finite and increasing",
+                "output times must be finite and increasing, the first at or after 0, the others after it",
             ));
         }
         last = t;
@@ -958,8 +961,13 @@ impl<E: Executor> Context<'_, '_, E> {
                         } else {
                             Wall::moving(velocity)
                         };
-                        wall.reflection = w.reflection;
-                        if w.body_force_curvature && !w.free_slip {
+                        // Point reflection and the velocity curvature refine
+                        // mirrored ghosts; wall particles take the fluid's.
+                        let mirrored = s.physics.wall_boundary == WallBoundary::Mirror;
+                        if mirrored {
+                            wall.reflection = w.reflection;
+                        }
+                        if mirrored && w.body_force_curvature && !w.free_slip {
                             wall.curvature = S::Vector::from_fn(|b| {
                                 if b == a {
                                     S::Real::ZERO
@@ -972,6 +980,9 @@ impl<E: Executor> Context<'_, '_, E> {
                     }
                 }
             }
+        }
+        if s.physics.wall_boundary == WallBoundary::Particles {
+            domain = domain.with_wall_particles(f(s.dx))?;
         }
         let to_local = [-s.origin[0], -s.origin[1], -s.origin[2]];
         for w in &s.shaped_walls {
@@ -1039,8 +1050,10 @@ impl<E: Executor> Context<'_, '_, E> {
                 ghosts += walls * (face * slab) as usize;
             }
         }
-        // A shaped wall mirrors at most every fluid particle once.
-        let capacity = n + 2 * ghosts + n * s.shaped_walls.len();
+        // A shaped wall mirrors at most every fluid particle once; wall
+        // particles fill a shell at most two support radii deep.
+        let wall_particles = sph_core::boundary::wall_particle_count(&domain, f(2.0 * h * kappa));
+        let capacity = n + 2 * ghosts + n * s.shaped_walls.len() + wall_particles;
         let cells = Solver::<S, K, M, D, T>::cells_needed(&domain, f(h))?;
         let width = crate::driver::list_width(S::DIM, kappa, s.physics.beta, SKIN);
         let mut buffers = Buffers::<S>::new(capacity, cells).with_lists(width);
@@ -1184,8 +1197,13 @@ impl<E: Executor> Context<'_, '_, E> {
         let mut plan = Vec::with_capacity(s.output_times.len());
         let mut last = 0.0;
         for &t in &s.output_times {
-            let steps = ((t - last) / dt_max).ceil().max(1.0) as u64;
-            plan.push((t, steps, (t - last) / steps as f64));
+            // An output at t = 0 takes no step.
+            let steps = if t > last {
+                ((t - last) / dt_max).ceil().max(1.0) as u64
+            } else {
+                0
+            };
+            plan.push((t, steps, (t - last) / steps.max(1) as f64));
             last = t;
         }
         let (first_interval, first_done) = resume.map_or((0, 0), |ck| (ck.interval, ck.done));

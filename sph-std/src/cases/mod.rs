@@ -24,7 +24,8 @@ use crate::config::{check, DensityMode, KernelName, MathBackend, Precision, Visc
 use crate::error::{Error, Result};
 use crate::plot::{line_plot, Axes, Series};
 use crate::scene::{
-    EosForm, Monitor, Physics, PressureForm, Regularise, RunRecord, Scene, WallPressure,
+    EosForm, Monitor, Physics, PressureForm, Regularise, RunRecord, Scene, WallBoundary,
+    WallPressure,
 };
 
 mod cavity;
@@ -32,6 +33,7 @@ mod closed_tank;
 mod couette;
 pub mod custom;
 mod cylinder_array;
+mod dam_break;
 mod hydrostatic;
 mod poiseuille;
 mod taylor_couette;
@@ -42,6 +44,10 @@ pub use cavity::{compare_ghia, ghia, shepard_velocity, Comparison, GhiaRow};
 pub use closed_tank::{pressure_probes as closed_tank_pressure_probes, Container};
 pub use cylinder_array::{
     drag as cylinder_array_drag, measured_drag as cylinder_array_measured_drag,
+};
+pub use dam_break::{
+    front as dam_break_front, history as dam_break_history, interpolate as dam_break_interpolate,
+    KOSHIZUKA_OKA, MARTIN_MOYCE_1125, MARTIN_MOYCE_225,
 };
 pub use hydrostatic::{
     exact_pressure as hydrostatic_exact_pressure, pressure_probes as hydrostatic_pressure_probes,
@@ -111,9 +117,14 @@ pub const CASES: &[Case] = &[
     cylinder_array::CASE,
     closed_tank::CASE,
     hydrostatic::CASE,
+    dam_break::CASE,
     cavity::CASE,
     custom::CASE,
 ];
+
+fn mirror() -> WallBoundary {
+    WallBoundary::Mirror
+}
 
 fn hydrostatic() -> WallPressure {
     WallPressure::Hydrostatic
@@ -190,6 +201,11 @@ pub struct Settings {
     /// force across the wall) or `mirror` (a copy of the source's).
     #[serde(default = "hydrostatic")]
     pub wall_pressure: WallPressure,
+    /// The box's planar walls: `mirror` (mirrored ghosts, exact for the
+    /// channels) or `particles` (fixed wall particles, Adami et al. 2012:
+    /// free surfaces driven at a wall).
+    #[serde(default = "mirror")]
+    pub wall_boundary: WallBoundary,
     /// The pressure gradient: `symmetric` (conserves momentum) or
     /// `corrected` (exact for linear pressure on any arrangement;
     /// continuity density only).
@@ -269,6 +285,7 @@ impl Settings {
             sound_speed_factor: 10.0,
             background_pressure: 0.0,
             wall_pressure: WallPressure::Hydrostatic,
+            wall_boundary: WallBoundary::Mirror,
             pressure_gradient: PressureForm::Symmetric,
             eos: EosForm::Linear,
             alpha: 0.0,
@@ -533,6 +550,7 @@ impl Settings {
             background_pressure: self.background_pressure * rho0 * c0 * c0,
             dt_factor: self.dt_factor,
             wall_pressure: self.wall_pressure,
+            wall_boundary: self.wall_boundary,
             pressure_gradient: self.pressure_gradient,
         }
     }
