@@ -1343,6 +1343,8 @@ where
         let (fluid_p, ghost_p) = self.a.p.split_at_mut(n);
         let gravity = self.domain.wall_gravity();
         let eos = self.params.eos;
+        // The fallback density for a wall pressure the equation cannot invert.
+        let rho0 = eos.density::<M>(S::Real::ZERO, S::Real::ONE);
         let near = FluidNear {
             kernel: &self.kernel,
             grid: &self.grid,
@@ -1370,7 +1372,7 @@ where
                     p *= S::Real::ONE / sum_w;
                 }
                 ghost_p[k] = p;
-                ghost_rho[k] = eos.density::<M>(p, eos.density::<M>(S::Real::ZERO, S::Real::ONE));
+                ghost_rho[k] = eos.density::<M>(p, rho0);
                 continue;
             }
             let Some(gravity) = gravity else {
