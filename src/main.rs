@@ -93,11 +93,14 @@ enum Command {
     /// errors at each output time. Every flag has a config-file key with the
     /// same words (underscores for dashes); flags override the file.
     Couette(Box<CouetteArgs>),
-    /// Times a standard scene: particle-steps and pair interactions per second.
+    /// Times a standard scene or a case: particle-steps and pair interactions per second.
     ///
     /// The periodic boxes are timed after an untimed warm-up that disorders
-    /// the initial lattice. With --json stdout is one JSON object (the text goes to stderr).
-    Bench(BenchArgs),
+    /// the initial lattice. A case (`--scene dam-break --dim 3`) is stepped
+    /// as `sph run` steps it, from its initial state, with the same flags to
+    /// change its settings (`--density-diffusion 0` times it without delta-SPH).
+    /// With --json stdout is one JSON object (the text goes to stderr).
+    Bench(Box<BenchArgs>),
     /// Convergence of the Couette error in N and beta (the poster's "second order").
     ///
     /// Fixed-beta sweeps per kernel (local, fitted and Richardson orders, and
@@ -144,24 +147,49 @@ struct RunArgs {
     /// Run even when the run needs more than 10^9 time steps.
     #[arg(long)]
     allow_long_run: bool,
-    /// Particles across the case's reference length.
-    #[arg(long, value_name = "N")]
-    resolution: Option<usize>,
-    /// Dimension.
-    #[arg(long, value_name = "2|3")]
-    dim: Option<usize>,
     /// End time in seconds.
     #[arg(long, value_name = "S")]
     t_end: Option<f64>,
     /// Time between outputs in seconds.
     #[arg(long, value_name = "S")]
     output_interval: Option<f64>,
-    /// Reynolds number.
-    #[arg(long, value_name = "RE")]
-    re: Option<f64>,
     /// Worker threads; 0 = all cores.
     #[arg(long, value_name = "T")]
     threads: Option<usize>,
+    /// The scene's settings.
+    #[command(flatten)]
+    scene_settings: SceneOverrides,
+    /// Write VTK particle snapshots (.vtu and a .pvd index).
+    #[arg(long)]
+    vtk: bool,
+    /// Write the VTK snapshots as ASCII text instead of binary.
+    #[arg(long)]
+    vtk_ascii: bool,
+    /// Publish the results so far with a checkpoint every S simulated
+    /// seconds (resume with `sph resume DIR` if the process is lost).
+    #[arg(long, value_name = "S")]
+    checkpoint_every: Option<f64>,
+    /// Print summary.json as one JSON object on stdout (the table goes to stderr).
+    #[arg(long)]
+    json: bool,
+    /// No progress bar and no table.
+    #[arg(long)]
+    quiet: bool,
+}
+
+/// Settings a command line may change in a built-in case or a scene file
+/// (`sph run`, and `sph bench` for case scenes).
+#[derive(Args, Debug, Default, PartialEq)]
+struct SceneOverrides {
+    /// Particles across the case's reference length.
+    #[arg(long, value_name = "N")]
+    resolution: Option<usize>,
+    /// Dimension.
+    #[arg(long, value_name = "2|3")]
+    dim: Option<usize>,
+    /// Reynolds number.
+    #[arg(long, value_name = "RE")]
+    re: Option<f64>,
     /// Smoothing kernel.
     #[arg(long, value_name = "NAME", value_parser = parse_name::<KernelName>)]
     kernel: Option<KernelName>,
@@ -226,22 +254,43 @@ struct RunArgs {
     /// Time over which gravity rises from zero (free-surface cases).
     #[arg(long, value_name = "S")]
     gravity_ramp: Option<f64>,
-    /// Write VTK particle snapshots (.vtu and a .pvd index).
-    #[arg(long)]
-    vtk: bool,
-    /// Write the VTK snapshots as ASCII text instead of binary.
-    #[arg(long)]
-    vtk_ascii: bool,
-    /// Publish the results so far with a checkpoint every S simulated
-    /// seconds (resume with `sph resume DIR` if the process is lost).
-    #[arg(long, value_name = "S")]
-    checkpoint_every: Option<f64>,
-    /// Print summary.json as one JSON object on stdout (the table goes to stderr).
-    #[arg(long)]
-    json: bool,
-    /// No progress bar and no table.
-    #[arg(long)]
-    quiet: bool,
+}
+
+impl SceneOverrides {
+    /// Applies the overrides given to `s`.
+    fn apply(&self, s: &mut Settings) {
+        macro_rules! set {
+            ($($field:ident),+) => {
+                $(if let Some(v) = self.$field.clone() { s.$field = v; })+
+            };
+        }
+        set!(
+            resolution,
+            dim,
+            re,
+            kernel,
+            beta,
+            density,
+            viscosity,
+            precision,
+            math,
+            regularise,
+            shift_coefficient,
+            density_diffusion,
+            dt_factor,
+            wall_pressure,
+            wall_boundary,
+            pressure_gradient,
+            eos,
+            alpha,
+            tension_cutoff,
+            energy_budget,
+            adaptive_dt
+        );
+        if let Some(ramp) = self.gravity_ramp {
+            s.gravity_ramp = Some(ramp);
+        }
+    }
 }
 
 #[derive(Args, Debug)]
@@ -270,38 +319,11 @@ impl RunArgs {
         };
         macro_rules! set {
             ($($field:ident),+) => {
-                $(if let Some(v) = self.$field.clone() { s.$field = v; })+
+                $(if let Some(v) = self.$field { s.$field = v; })+
             };
         }
-        set!(
-            resolution,
-            dim,
-            t_end,
-            output_interval,
-            re,
-            threads,
-            kernel,
-            beta,
-            density,
-            viscosity,
-            precision,
-            math,
-            regularise,
-            shift_coefficient,
-            density_diffusion,
-            dt_factor,
-            wall_pressure,
-            wall_boundary,
-            pressure_gradient,
-            eos,
-            alpha,
-            tension_cutoff,
-            energy_budget,
-            adaptive_dt
-        );
-        if let Some(ramp) = self.gravity_ramp {
-            s.gravity_ramp = Some(ramp);
-        }
+        set!(t_end, output_interval, threads);
+        self.scene_settings.apply(&mut s);
         s.validate()?;
         Ok(s)
     }
@@ -643,17 +665,19 @@ fn run_convergence(args: &StudyArgs) -> Result<()> {
 
 #[derive(Args, Debug)]
 struct BenchArgs {
-    /// Scene: box2d, box3d, couette [default: box2d].
-    #[arg(long, value_name = "NAME", default_value = "box2d", hide_default_value = true, value_parser = bench::Scene::parse)]
-    scene: bench::Scene,
-    /// Approximate number of fluid particles [default: 40000].
+    /// Scene: box2d, box3d, couette, or a built-in case (see `sph cases`)
+    /// or scene file (.toml) stepped as `sph run` steps it [default: box2d].
     #[arg(
         long,
-        value_name = "N",
-        default_value_t = 40_000,
+        value_name = "NAME|FILE",
+        default_value = "box2d",
         hide_default_value = true
     )]
-    n: usize,
+    scene: String,
+    /// Approximate number of fluid particles [default: 40000 for the box
+    /// scenes; a case's own resolution].
+    #[arg(long, value_name = "N")]
+    n: Option<usize>,
     /// Threads; 0 = all cores, 1 = serial without rayon [default: 1].
     #[arg(long, value_name = "T", default_value_t = 1, hide_default_value = true)]
     threads: usize,
@@ -705,12 +729,68 @@ struct BenchArgs {
     /// Print the report as one JSON object on stdout (the text goes to stderr).
     #[arg(long)]
     json: bool,
+    /// Settings of a case scene.
+    #[command(flatten, next_help_heading = "Case scenes (not box2d, box3d, couette)")]
+    scene_settings: SceneOverrides,
+}
+
+impl BenchArgs {
+    /// The settings of a case scene: the case's defaults or the file, then
+    /// the flags; refuses the box scenes' own options.
+    fn case_settings(&self) -> Result<Settings> {
+        let box_only = [
+            ("no_lists", self.no_lists, "true".to_string()),
+            ("shuffle", self.shuffle, "true".to_string()),
+            ("sweep", self.sweep, "true".to_string()),
+            ("skin", self.skin != 0.1, self.skin.to_string()),
+            (
+                "reorder_every",
+                self.reorder_every != 1,
+                self.reorder_every.to_string(),
+            ),
+        ];
+        if let Some((key, _, value)) = box_only.into_iter().find(|b| b.1) {
+            return Err(sph_std::error::Error::config(
+                key,
+                value,
+                "applies to the box2d, box3d and couette scenes only (a case scene runs \
+                 with the scene layer's own neighbour lists)",
+            ));
+        }
+        if let (Some(n), Some(_)) = (self.n, self.scene_settings.resolution) {
+            return Err(sph_std::error::Error::config(
+                "n",
+                n,
+                "give either --n or --resolution for a case scene, not both",
+            ));
+        }
+        let mut s = if self.scene.ends_with(".toml") {
+            Settings::from_file(std::path::Path::new(&self.scene))?
+        } else {
+            (cases::find(&self.scene)?.defaults)()
+        };
+        self.scene_settings.apply(&mut s);
+        s.threads = sane_threads(self.threads);
+        s.validate()?;
+        Ok(s)
+    }
 }
 
 fn run_bench(args: &BenchArgs) -> Result<()> {
+    let Ok(scene) = bench::Scene::parse(&args.scene) else {
+        return run_case_bench(args);
+    };
+    if args.scene_settings != SceneOverrides::default() {
+        return Err(sph_std::error::Error::config(
+            "scene",
+            &args.scene,
+            "takes no case settings (--resolution, --dim, --density, ...): they apply to \
+             case scenes; the box scenes take --n",
+        ));
+    }
     let config = bench::BenchConfig {
-        scene: args.scene,
-        n: args.n,
+        scene,
+        n: args.n.unwrap_or(40_000),
         threads: sane_threads(args.threads),
         steps: args.steps,
         warmup: args.warmup,
@@ -726,7 +806,7 @@ fn run_bench(args: &BenchArgs) -> Result<()> {
         let (rows, slope) = bench::sweep(&config, &args.sizes)?;
         outln!(
             "{} scene, {} thread(s): time per step against N",
-            args.scene.name(),
+            scene.name(),
             rows[0].report.threads
         );
         outln!(
@@ -754,6 +834,25 @@ fn run_bench(args: &BenchArgs) -> Result<()> {
         return Ok(());
     }
     let report = bench::run(&config)?;
+    print_bench(&report, args.json)
+}
+
+fn run_case_bench(args: &BenchArgs) -> Result<()> {
+    let settings = args.case_settings()?;
+    if args.json {
+        json_mode();
+    }
+    let report = bench::run_case(&bench::CaseBench {
+        settings,
+        n: args.n,
+        steps: args.steps,
+        warmup: args.warmup,
+    })?;
+    print_bench(&report, args.json)
+}
+
+/// Prints a benchmark's report (and its JSON with `json`).
+fn print_bench(report: &bench::BenchReport, json: bool) -> Result<()> {
     outln!(
         "{} scene: {} particles, {} thread(s), {} steps in {:.3} s",
         report.scene,
@@ -783,8 +882,8 @@ fn run_bench(args: &BenchArgs) -> Result<()> {
         "  bytes per particle:                        {:.0}",
         report.bytes_per_particle
     );
-    if args.json {
-        match serde_json::to_value(&report) {
+    if json {
+        match serde_json::to_value(report) {
             Ok(value) => json_out(&value),
             Err(e) => {
                 return Err(sph_std::error::Error::config(

@@ -795,6 +795,103 @@ fn benchmark_edge_cases_are_clear_errors_or_work() {
 }
 
 #[test]
+fn a_case_scene_is_timed_as_sph_run_steps_it() {
+    let report = |args: &[&str]| -> serde_json::Value {
+        let result = sph().args(args).output().unwrap();
+        assert!(result.status.success(), "{args:?}: {result:?}");
+        serde_json::from_slice(&result.stdout).unwrap()
+    };
+    let base = [
+        "bench",
+        "--scene",
+        "dam-break",
+        "--n",
+        "800",
+        "--steps",
+        "4",
+        "--warmup",
+        "2",
+        "--json",
+    ];
+    let dam = report(&base);
+    assert_eq!(dam["scene"], "dam-break");
+    assert_eq!(dam["steps"], 4);
+    // The resolution scales with sqrt(n): about 800 fluid particles.
+    let n = dam["n"].as_f64().unwrap();
+    assert!((500.0..1300.0).contains(&n), "{dam}");
+    // Quintic spline, beta 1: support 3 dx, pi 9 = 28.3 neighbours inside the
+    // fluid, fewer at the free surface, wall particles counted.
+    let k = dam["neighbours_mean"].as_f64().unwrap();
+    assert!((14.0..31.0).contains(&k), "{dam}");
+    // Continuity density (no density pass), forces, the energy budget's rates.
+    assert_eq!(dam["passes_per_step"], 2, "{dam}");
+    assert!(dam["particle_steps_per_s"].as_f64().unwrap() > 0.0);
+    // The case's settings are the flags of `sph run`.
+    let no_budget = report(&[&base[..], &["--energy-budget", "false"]].concat());
+    assert_eq!(no_budget["passes_per_step"], 1, "{no_budget}");
+    let three = report(&[
+        "bench",
+        "--scene",
+        "dam-break",
+        "--dim",
+        "3",
+        "--resolution",
+        "6",
+        "--steps",
+        "2",
+        "--warmup",
+        "0",
+        "--json",
+    ]);
+    // 6 x 12 x 6 particles in the column.
+    assert_eq!(three["n"], 432, "{three}");
+    // Box-scene options, case settings on a box, both sizes: clear errors.
+    let toml = scratch("bench-short").with_extension("toml");
+    std::fs::write(
+        &toml,
+        "case = \"dam-break\"\nresolution = 8\nt_end = 0.01\n",
+    )
+    .unwrap();
+    let toml = toml.to_string_lossy().into_owned();
+    for (args, key) in [
+        (
+            &["bench", "--scene", "dam-break", "--shuffle"][..],
+            "`shuffle`",
+        ),
+        (
+            &["bench", "--scene", "dam-break", "--skin", "0.3"],
+            "`skin`",
+        ),
+        (
+            &["bench", "--scene", "box2d", "--resolution", "10"],
+            "`scene`",
+        ),
+        (
+            &[
+                "bench",
+                "--scene",
+                "dam-break",
+                "--n",
+                "100",
+                "--resolution",
+                "10",
+            ],
+            "`n`",
+        ),
+        (&["bench", "--scene", "no-such-case"], "`case`"),
+        (
+            &["bench", "--scene", &toml, "--warmup", "100000"],
+            "`steps`",
+        ),
+    ] {
+        let (code, err) = status_and_error(args);
+        assert_eq!(code, Some(2), "{args:?}: {err}");
+        assert!(err.contains(key), "{args:?}: {err}");
+    }
+    let _ = std::fs::remove_file(&toml);
+}
+
+#[test]
 fn json_flags_print_one_object_and_nothing_else_on_stdout() {
     let out = scratch("json");
     let dir = out.to_string_lossy().into_owned();

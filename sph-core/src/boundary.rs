@@ -436,7 +436,14 @@ pub fn generate<S: Space>(
     let available = tail.len().min(ghosts.len());
     let extent = domain.extent();
     let mut count = 0usize;
+    // The fluid's bounding box, for the wall particles below.
+    let mut lo = S::Vector::from_fn(|_| S::Real::MAX);
+    let mut hi = S::Vector::from_fn(|_| -S::Real::MAX);
     for (i, &xi) in fluid.iter().enumerate() {
+        for a in 0..S::DIM {
+            lo[a] = lo[a].min(xi[a]);
+            hi[a] = hi[a].max(xi[a]);
+        }
         // Per axis: "no mirror", plus each wall closer than the radius.
         let mut options = [[0u8; 3]; 3];
         let mut n_opt = [1usize; 3];
@@ -499,7 +506,18 @@ pub fn generate<S: Space>(
             }
         }
     }
+    // Only the wall particles within `radius` of the fluid's bounding box
+    // (along the walled axes): the others are in no fluid particle's
+    // neighbourhood, so leaving them out changes no sum, and a tank the
+    // fluid half fills does not pay for its empty half.
+    let near = |xw: S::Vector| {
+        (0..S::DIM)
+            .all(|a| domain.is_periodic(a) || (xw[a] > lo[a] - radius && xw[a] < hi[a] + radius))
+    };
     for_each_wall_particle(domain, radius, |xw, bit, _| {
+        if !near(xw) {
+            return;
+        }
         if count < available {
             tail[count] = xw;
             ghosts[count] = Ghost {
@@ -651,13 +669,31 @@ mod tests {
         });
         assert_eq!(xs.len(), 10);
         assert!((xs[1] - xs[0] - 0.103).abs() < 1e-12);
-        // With wall particles the planar walls mirror nothing.
+        // With wall particles the planar walls mirror nothing; fluid in
+        // opposite corners spans the box, so the whole shell is written.
         let mut x = [V2::default(); 200];
         x[0] = V2::new([0.05, 0.05]);
+        x[1] = V2::new([0.98, 0.95]);
         let mut ghosts = [Ghost::default(); 200];
-        let n = generate(&d, 0.25, &mut x, 1, &mut ghosts).unwrap();
+        let n = generate(&d, 0.25, &mut x, 2, &mut ghosts).unwrap();
         assert_eq!(n, wall_particle_count(&d, 0.25));
         assert!(ghosts[..n].iter().all(|g| g.mirrors & WALL_PARTICLE != 0));
+        // One particle in a corner: the wall particles within the radius of
+        // the fluid's bounding box, every one within the radius of the
+        // particle among them, and no others.
+        let n = generate(&d, 0.25, &mut x, 1, &mut ghosts).unwrap();
+        let kept = x[1..1 + n].to_vec();
+        let mut near = 0;
+        for_each_wall_particle(&d, 0.25, |w, _, _| {
+            let in_box = (0..2).all(|a| (w[a] - 0.05).abs() < 0.25);
+            if in_box {
+                near += 1;
+                assert!(kept.contains(&w), "{w:?}");
+            }
+            assert!(in_box || (w - x[0]).norm2() >= 0.25 * 0.25);
+        });
+        assert_eq!(n, near);
+        assert!(n < wall_particle_count(&d, 0.25) / 2);
     }
 
     #[test]

@@ -8,10 +8,17 @@
 //! - `box3d`: the same in 3D (cubic, `h = 1.2 dx`, about 57 neighbours).
 //! - `couette`: the Couette validation scene (walls by ghosts).
 //!
+//! - any built-in case or scene file ([`run_case`]): the scene as `sph run`
+//!   steps it, through the scene layer (its terms, walls, adaptive step,
+//!   monitor and energy budget), so a term's cost is the difference between
+//!   two runs that differ in it.
+//!
 //! The box is timed after an untimed warm-up that disorders the lattice: on a
 //! fresh lattice the branch predictor learns the neighbour pattern and
 //! flatters branchy code.
 
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Mutex;
 use std::time::Instant;
 
 use serde::Serialize;
@@ -23,6 +30,9 @@ use sph_core::prelude::{
     Term, Vector, VectorOps, Wall, D2, D3,
 };
 
+use crate::cases::Settings;
+use crate::config::DensityMode;
+use crate::couette::Progress;
 use crate::driver::{Buffers, Rayon};
 use crate::error::{Error, Result};
 
@@ -215,7 +225,7 @@ fn dispatch<E: Executor>(cfg: &BenchConfig, exec: &E) -> Result<BenchReport> {
 
 /// Mean neighbours (itself included) of the first `n` particles of `all`
 /// (fluid first, then ghosts), counted once over a fresh cell list.
-fn mean_neighbours<S: Space>(
+pub(crate) fn mean_neighbours<S: Space>(
     all: &[S::Vector],
     n: usize,
     domain: &Domain<S>,
@@ -586,4 +596,148 @@ pub fn loglog_slope(points: &[(f64, f64)]) -> f64 {
         sxy += lx * ly;
     }
     (n * sxy - sx * sy) / (n * sxx - sx * sx)
+}
+
+/// What [`run_case`] times.
+#[derive(Clone, Debug)]
+pub struct CaseBench {
+    /// The scene's settings (a built-in case's defaults, a scene file, and
+    /// any overrides; `threads` is the thread count timed).
+    pub settings: Settings,
+    /// Approximate fluid particles: the resolution is scaled from the
+    /// settings' to reach it (`None`: the settings' resolution).
+    pub n: Option<usize>,
+    /// Timed steps.
+    pub steps: usize,
+    /// Untimed steps before them, from the scene's initial state.
+    pub warmup: usize,
+}
+
+/// Counts the steps of a scene run (the scene layer asks
+/// [`Progress::cancelled`] once before each step), starts the clock before
+/// step `warmup + 1` and stops the run before step `warmup + steps + 1`.
+struct Stopwatch {
+    calls: AtomicU64,
+    warmup: u64,
+    steps: u64,
+    start: Mutex<Option<Instant>>,
+    end: Mutex<Option<Instant>>,
+}
+
+impl Stopwatch {
+    fn mark(slot: &Mutex<Option<Instant>>) {
+        if let Ok(mut t) = slot.lock() {
+            *t = Some(Instant::now());
+        }
+    }
+
+    fn read(slot: &Mutex<Option<Instant>>) -> Option<Instant> {
+        slot.lock().ok().and_then(|t| *t)
+    }
+}
+
+impl Progress for Stopwatch {
+    fn start(&self, _total: u64) {}
+    fn advance(&self, _steps: u64) {}
+    fn finish(&self) {}
+    fn cancelled(&self) -> bool {
+        if crate::progress::stop_flag().load(Ordering::Relaxed) {
+            return true;
+        }
+        let k = self.calls.fetch_add(1, Ordering::SeqCst);
+        if k == self.warmup {
+            Self::mark(&self.start);
+        }
+        if k == self.warmup + self.steps {
+            Self::mark(&self.end);
+        }
+        k >= self.warmup + self.steps
+    }
+}
+
+/// The resolution that gives about `n` fluid particles, scaled from the
+/// settings' own (fluid particles grow as resolution^dim).
+fn resolution_for(settings: &Settings, n: usize) -> Result<usize> {
+    let scene = crate::cases::scene(settings)?;
+    let n0 = crate::scene::lattice(&scene).len();
+    if n0 == 0 || n == 0 {
+        return Err(Error::config(
+            "n",
+            n,
+            "must be a positive particle count (the scene must hold fluid)",
+        ));
+    }
+    let scale = (n as f64 / n0 as f64).powf(1.0 / settings.dim as f64);
+    Ok(((settings.resolution as f64 * scale).round() as usize).max(1))
+}
+
+/// Times a scene as `sph run` steps it: `warmup` untimed steps from its
+/// initial state, then `steps` timed ones, everything the scene layer does
+/// per step included (wall particles, the adaptive step, the monitor, the
+/// energy budget, diagnostics at output times that fall inside). Pairs
+/// count the fluid passes over neighbours (density by summation, forces,
+/// the energy budget's rates) with the mean neighbour count at the end;
+/// the wall particles' gathers are timed but not counted as pairs.
+///
+/// # Errors
+/// [`Error::Config`] for a bad setting, a step count of zero, or a scene
+/// that ends (or stops) before the timed steps are done; core errors.
+pub fn run_case(bench: &CaseBench) -> Result<BenchReport> {
+    if bench.steps == 0 {
+        return Err(Error::config("steps", bench.steps, "must be at least 1"));
+    }
+    let mut settings = bench.settings.clone();
+    if let Some(n) = bench.n {
+        settings.resolution = resolution_for(&settings, n)?;
+    }
+    let mut scene = crate::cases::scene(&settings)?;
+    // Nothing is written; frames would only cost memory.
+    scene.keep_particles = false;
+    let watch = Stopwatch {
+        calls: AtomicU64::new(0),
+        warmup: bench.warmup as u64,
+        steps: bench.steps as u64,
+        start: Mutex::new(None),
+        end: Mutex::new(None),
+    };
+    let record = crate::scene::run(&scene, &watch)?;
+    // The clock stops only where the stopwatch ended the run itself.
+    let (Some(start), Some(end)) = (Stopwatch::read(&watch.start), Stopwatch::read(&watch.end))
+    else {
+        return Err(Error::config(
+            "steps",
+            bench.warmup + bench.steps,
+            match &record.stop {
+                Some(stop) => format!(
+                    "the scene stopped after {} steps, before {} warm-up and {} timed steps: {}",
+                    record.steps, bench.warmup, bench.steps, stop.reason
+                ),
+                None => format!(
+                    "the scene ended after {} steps, before {} warm-up and {} timed steps; \
+                     lower --warmup or --steps",
+                    record.steps, bench.warmup, bench.steps
+                ),
+            },
+        ));
+    };
+    let seconds = end.duration_since(start).as_secs_f64();
+    let neighbours_mean = record.neighbours_mean.unwrap_or(f64::NAN);
+    let passes = 1
+        + usize::from(settings.density == DensityMode::Summation)
+        + usize::from(settings.energy_budget);
+    let particle_steps = (record.n_fluid * bench.steps) as f64;
+    let pairs = particle_steps * neighbours_mean * passes as f64;
+    Ok(BenchReport {
+        scene: crate::cases::find(&settings.case)?.name,
+        n: record.n_fluid,
+        threads: record.threads,
+        steps: bench.steps,
+        neighbours_mean,
+        seconds,
+        particle_steps_per_s: particle_steps / seconds,
+        pairs_per_s: pairs / seconds,
+        ns_per_pair: seconds * 1e9 / pairs,
+        bytes_per_particle: record.storage_bytes as f64 / record.n_fluid.max(1) as f64,
+        passes_per_step: passes,
+    })
 }

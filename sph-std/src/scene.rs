@@ -463,6 +463,11 @@ pub struct RunRecord {
     pub wall_seconds: f64,
     /// Bytes of particle storage.
     pub storage_bytes: usize,
+    /// Mean neighbours of a fluid particle within the support radius
+    /// (itself, fluid, ghosts and wall particles included) at the state
+    /// where the run ended; `None` where they could not be counted (a
+    /// diverged state).
+    pub neighbours_mean: Option<f64>,
     /// Diagnostics at each output time reached.
     pub outputs: Vec<Diagnostics>,
     /// Particle states at each output time reached (with `keep_particles`).
@@ -1241,6 +1246,7 @@ impl<E: Executor> Context<'_, '_, E> {
             threads: 1,
             wall_seconds: 0.0,
             storage_bytes,
+            neighbours_mean: None,
             outputs: resume.map_or_else(Vec::new, |ck| ck.outputs.clone()),
             frames: resume.map_or_else(Vec::new, |ck| ck.frames.clone()),
             stop: None,
@@ -1377,6 +1383,7 @@ impl<E: Executor> Context<'_, '_, E> {
             }
         }
         record.steps = solver.steps();
+        record.neighbours_mean = neighbours_mean(&solver);
         Ok(record)
     }
 
@@ -1672,6 +1679,30 @@ where
             .iter()
             .map(|v| v.norm2().to_f64().sqrt() / c0),
     )
+}
+
+/// Mean neighbours of a fluid particle at the solver's state (see
+/// [`RunRecord::neighbours_mean`]), from one fresh cell list.
+fn neighbours_mean<S, K, M, D, T>(solver: &Solver<'_, S, K, M, D, T>) -> Option<f64>
+where
+    S: Space,
+    K: Kernel,
+    M: Math<S::Real>,
+    D: Term<S>,
+    T: Term<S>,
+{
+    let domain = solver.domain();
+    // Between list rebuilds positions may lie just outside a periodic side.
+    let mut all: Vec<S::Vector> = solver
+        .positions()
+        .iter()
+        .map(|x| domain.wrap::<M>(*x))
+        .collect();
+    let n = all.len();
+    all.extend_from_slice(solver.ghost_positions());
+    let radius = solver.kernel().radius();
+    let reach = radius * (S::Real::ONE + solver.params().skin);
+    crate::bench::mean_neighbours::<S>(&all, n, domain, radius, reach).ok()
 }
 
 fn frame<S, K, M, D, T>(solver: &Solver<'_, S, K, M, D, T>, t: f64) -> Frame
