@@ -177,6 +177,15 @@ struct RunArgs {
     quiet: bool,
 }
 
+/// A scene file's settings (a name ending in .toml) or a built-in case's defaults.
+fn scene_settings(scene: &str) -> Result<Settings> {
+    if scene.ends_with(".toml") {
+        Settings::from_file(std::path::Path::new(scene))
+    } else {
+        Ok((cases::find(scene)?.defaults)())
+    }
+}
+
 /// Settings a command line may change in a built-in case or a scene file
 /// (`sph run`, and `sph bench` for case scenes).
 #[derive(Args, Debug, Default, PartialEq)]
@@ -312,11 +321,7 @@ struct ResumeArgs {
 impl RunArgs {
     /// The settings: the case's defaults, then the file, then the flags.
     fn settings(&self) -> Result<Settings> {
-        let mut s = if self.scene.ends_with(".toml") {
-            Settings::from_file(std::path::Path::new(&self.scene))?
-        } else {
-            (cases::find(&self.scene)?.defaults)()
-        };
+        let mut s = scene_settings(&self.scene)?;
         macro_rules! set {
             ($($field:ident),+) => {
                 $(if let Some(v) = self.$field { s.$field = v; })+
@@ -764,11 +769,7 @@ impl BenchArgs {
                 "give either --n or --resolution for a case scene, not both",
             ));
         }
-        let mut s = if self.scene.ends_with(".toml") {
-            Settings::from_file(std::path::Path::new(&self.scene))?
-        } else {
-            (cases::find(&self.scene)?.defaults)()
-        };
+        let mut s = scene_settings(&self.scene)?;
         self.scene_settings.apply(&mut s);
         s.threads = sane_threads(self.threads);
         s.validate()?;

@@ -223,15 +223,28 @@ fn dispatch<E: Executor>(cfg: &BenchConfig, exec: &E) -> Result<BenchReport> {
     }
 }
 
-/// Mean neighbours (itself included) of the first `n` particles of `all`
-/// (fluid first, then ghosts), counted once over a fresh cell list.
-pub(crate) fn mean_neighbours<S: Space>(
-    all: &[S::Vector],
-    n: usize,
-    domain: &Domain<S>,
-    radius: S::Real,
-    reach: S::Real,
-) -> Result<f64> {
+/// Mean neighbours (itself included, fluid, ghosts and wall particles
+/// counted) of a fluid particle at the solver's state, within the support
+/// radius, counted once over a fresh cell list.
+pub(crate) fn mean_neighbours<S, K, M, D, T>(solver: &Solver<'_, S, K, M, D, T>) -> Result<f64>
+where
+    S: Space,
+    K: sph_core::kernel::Kernel,
+    M: sph_core::math::Math<S::Real>,
+    D: Term<S>,
+    T: Term<S>,
+{
+    let domain = solver.domain();
+    // Between list rebuilds positions may lie just outside a periodic side: wrap them.
+    let mut all: Vec<S::Vector> = solver
+        .positions()
+        .iter()
+        .map(|x| domain.wrap::<M>(*x))
+        .collect();
+    let n = all.len();
+    all.extend_from_slice(solver.ghost_positions());
+    let radius = solver.kernel().radius();
+    let reach = radius * (<S::Real as sph_core::real::Real>::ONE + solver.params().skin);
     // The grid spans the ghosts, which reach as far as the Verlet lists do
     // (`reach`, at least `radius`); only pairs within `radius` count.
     let reach = if reach > radius { reach } else { radius };
@@ -241,11 +254,11 @@ pub(crate) fn mean_neighbours<S: Space>(
     let mut sorted = vec![0u32; all.len()];
     let mut cell = vec![0u32; all.len()];
     let mut list = sph_core::neighbour::CellList::new(&mut start, &mut sorted, &mut cell);
-    list.build(&grid, all)?;
+    list.build(&grid, &all)?;
     let view = list.view();
     let mut pairs = 0usize;
     for i in 0..n {
-        view.for_each_neighbour(&grid, all, i, |_, _, d2| {
+        view.for_each_neighbour(&grid, &all, i, |_, _, d2| {
             if d2 < r2 {
                 pairs += 1;
             }
@@ -258,7 +271,6 @@ fn timed<S, E, D, T>(
     cfg: &BenchConfig,
     exec: &E,
     solver: &mut Solver<'_, S, CubicSpline, Libm, D, T>,
-    domain: &Domain<S>,
     bytes_per_particle: f64,
 ) -> Result<BenchReport>
 where
@@ -272,17 +284,8 @@ where
     for _ in 0..cfg.warmup {
         solver.step_with(exec, dt)?;
     }
-    // Between list rebuilds positions may lie just outside a periodic side: wrap them.
-    let mut all: Vec<S::Vector> = solver
-        .positions()
-        .iter()
-        .map(|x| domain.wrap::<Libm>(*x))
-        .collect();
-    let n = all.len();
-    all.extend_from_slice(solver.ghost_positions());
-    let radius = solver.kernel().radius();
-    let reach = radius * (1.0 + solver.params().skin);
-    let neighbours_mean = mean_neighbours::<S>(&all, n, domain, radius, reach)?;
+    let n = solver.n_fluid();
+    let neighbours_mean = mean_neighbours(solver)?;
     let start = Instant::now();
     for _ in 0..cfg.steps {
         solver.step_with(exec, dt)?;
@@ -472,9 +475,8 @@ where
     };
     let mut scene = box_scene::<S>(cfg.n, options)?;
     let bytes = scene.buffers.bytes() as f64 / scene.n as f64;
-    let domain = scene.domain;
     let mut solver = scene.solver(exec)?;
-    timed(cfg, exec, &mut solver, &domain, bytes)
+    timed(cfg, exec, &mut solver, bytes)
 }
 
 fn couette<E: Executor>(cfg: &BenchConfig, exec: &E) -> Result<BenchReport> {
@@ -532,7 +534,7 @@ fn couette<E: Executor>(cfg: &BenchConfig, exec: &E) -> Result<BenchReport> {
         forces,
     )?;
     solver.calibrate_mass_with(exec, rho0)?;
-    timed(cfg, exec, &mut solver, &domain, bytes)
+    timed(cfg, exec, &mut solver, bytes)
 }
 
 /// One row of a size sweep.

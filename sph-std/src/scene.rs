@@ -1383,7 +1383,7 @@ impl<E: Executor> Context<'_, '_, E> {
             }
         }
         record.steps = solver.steps();
-        record.neighbours_mean = neighbours_mean(&solver);
+        record.neighbours_mean = crate::bench::mean_neighbours(&solver).ok();
         Ok(record)
     }
 
@@ -1679,30 +1679,6 @@ where
             .iter()
             .map(|v| v.norm2().to_f64().sqrt() / c0),
     )
-}
-
-/// Mean neighbours of a fluid particle at the solver's state (see
-/// [`RunRecord::neighbours_mean`]), from one fresh cell list.
-fn neighbours_mean<S, K, M, D, T>(solver: &Solver<'_, S, K, M, D, T>) -> Option<f64>
-where
-    S: Space,
-    K: Kernel,
-    M: Math<S::Real>,
-    D: Term<S>,
-    T: Term<S>,
-{
-    let domain = solver.domain();
-    // Between list rebuilds positions may lie just outside a periodic side.
-    let mut all: Vec<S::Vector> = solver
-        .positions()
-        .iter()
-        .map(|x| domain.wrap::<M>(*x))
-        .collect();
-    let n = all.len();
-    all.extend_from_slice(solver.ghost_positions());
-    let radius = solver.kernel().radius();
-    let reach = radius * (S::Real::ONE + solver.params().skin);
-    crate::bench::mean_neighbours::<S>(&all, n, domain, radius, reach).ok()
 }
 
 fn frame<S, K, M, D, T>(solver: &Solver<'_, S, K, M, D, T>, t: f64) -> Frame
