@@ -1393,6 +1393,7 @@ where
     fn run_density<E: Executor, G: Term<S>>(&mut self, exec: &E, group: &G) -> Result<()> {
         let n = self.n;
         let total = n + self.n_ghost;
+        let walls = self.walls_from();
         let width = if cfg!(feature = "neighbour-lists") {
             self.list_width
         } else {
@@ -1415,6 +1416,7 @@ where
             m: &m[..total],
             rho: &rho[..total],
             p: &p[..total],
+            walls,
         };
         if width == 0 {
             let pass = Pass {
@@ -1527,6 +1529,21 @@ where
         Ok(())
     }
 
+    /// Index of the first wall particle ([`Fields::walls`]): the wall
+    /// particles come last in the ghost tail.
+    fn walls_from(&self) -> usize {
+        let ghosts = &self.a.ghosts[..self.n_ghost];
+        let first = if self.domain.wall_particles().is_some() {
+            ghosts
+                .iter()
+                .position(|g| g.mirrors & boundary::WALL_PARTICLE != 0)
+                .unwrap_or(ghosts.len())
+        } else {
+            ghosts.len()
+        };
+        self.n + first
+    }
+
     /// Reorders (when due), generates ghosts within `radius` of the walls and
     /// sorts all particles into cells.
     fn build_cells(&mut self, radius: S::Real) -> Result<()> {
@@ -1618,6 +1635,7 @@ where
     fn run_forces<E: Executor, const VISCOUS_ONLY: bool>(&mut self, exec: &E) -> Result<()> {
         let n = self.n;
         let total = n + self.n_ghost;
+        let walls = self.walls_from();
         let Arrays {
             x,
             ve,
@@ -1648,6 +1666,7 @@ where
                 m: &m[..total],
                 rho: &rho[..total],
                 p: &p[..total],
+                walls,
             },
         };
         let forces = &self.forces;
@@ -2042,6 +2061,7 @@ where
                 m: &self.a.m[..total],
                 rho: &self.a.rho[..total],
                 p: &self.a.p[..total],
+                walls: self.walls_from(),
             },
         }
     }

@@ -34,6 +34,10 @@ pub struct Fields<'a, S: Space> {
     pub rho: &'a [S::Real],
     /// Pressures.
     pub p: &'a [S::Real],
+    /// Index of the first wall particle: `x[walls..]` are fixed wall
+    /// particles (`docs/physics.md` 5.3), the rest fluid and mirrored
+    /// ghosts; the length of the fields when there are none.
+    pub walls: usize,
 }
 
 impl<'a, S: Space> Fields<'a, S> {
@@ -54,6 +58,7 @@ impl<'a, S: Space> Fields<'a, S> {
             m: &self.m[..n],
             rho: &self.rho[..n],
             p: &self.p[..n],
+            walls: self.walls.min(n),
         }
     }
 }
@@ -336,7 +341,7 @@ fn positive<F: Real>(name: &'static str, value: F) -> Result<()> {
 /// # let x = [Vector::new([0.0, 0.0]), Vector::new([0.1, 0.0])];
 /// # let v = [Vector::new([1.0, 0.0]), Vector::new([0.0, 0.0])];
 /// # let (m, rho, p) = ([0.01, 0.01], [1.0, 1.02], [2.0, 1.0]);
-/// # let f = Fields::<D2<f64>> { x: &x, v: &v, m: &m, rho: &rho, p: &p };
+/// # let f = Fields::<D2<f64>> { x: &x, v: &v, m: &m, rho: &rho, p: &p, walls: x.len() };
 /// # let k = Consts { h: 0.13, eta2: 1e-6, c0: 10.0 };
 /// # let dest = |i: usize| Dest { i, v: v[i], m: m[i], rho: rho[i], p: p[i] };
 /// # // Kernel value and F = (1/r) dW/dr (negative) of the pair, by hand.
@@ -378,7 +383,7 @@ impl<S: Space> Term<S> for SummationDensity {
 /// # let x = [Vector::new([0.0, 0.0]), Vector::new([0.1, 0.0])];
 /// # let v = [Vector::new([1.0, 0.0]), Vector::new([0.0, 0.0])];
 /// # let (m, rho, p) = ([0.01, 0.01], [1.0, 1.02], [2.0, 1.0]);
-/// # let f = Fields::<D2<f64>> { x: &x, v: &v, m: &m, rho: &rho, p: &p };
+/// # let f = Fields::<D2<f64>> { x: &x, v: &v, m: &m, rho: &rho, p: &p, walls: x.len() };
 /// # let k = Consts { h: 0.13, eta2: 1e-6, c0: 10.0 };
 /// # let dest = |i: usize| Dest { i, v: v[i], m: m[i], rho: rho[i], p: p[i] };
 /// # // Kernel value and F = (1/r) dW/dr (negative) of the pair, by hand.
@@ -575,7 +580,7 @@ fn inverse_symmetric<S: Space>(m: &[S::Vector; 3]) -> Option<[S::Vector; 3]> {
 /// # let x = [Vector::new([0.0, 0.0]), Vector::new([0.1, 0.0])];
 /// # let v = [Vector::new([1.0, 0.0]), Vector::new([0.0, 0.0])];
 /// # let (m, rho, p) = ([0.01, 0.01], [1.0, 1.02], [2.0, 1.0]);
-/// # let f = Fields::<D2<f64>> { x: &x, v: &v, m: &m, rho: &rho, p: &p };
+/// # let f = Fields::<D2<f64>> { x: &x, v: &v, m: &m, rho: &rho, p: &p, walls: x.len() };
 /// # let k = Consts { h: 0.13, eta2: 1e-6, c0: 10.0 };
 /// # let dest = |i: usize| Dest { i, v: v[i], m: m[i], rho: rho[i], p: p[i] };
 /// # // Kernel value and F = (1/r) dW/dr (negative) of the pair, by hand.
@@ -666,7 +671,7 @@ impl<S: Space> Default for PressureMoments<S> {
 /// let v = vec![Vector::new([0.0, 0.0]); 9];
 /// let p: Vec<f64> = x.iter().map(|x| 3.0 + 2.0 * x[0] - 5.0 * x[1]).collect();
 /// let (m, rho) = (vec![0.01; 9], vec![1.0; 9]);
-/// let f = Fields::<D2<f64>> { x: &x, v: &v, m: &m, rho: &rho, p: &p };
+/// let f = Fields::<D2<f64>> { x: &x, v: &v, m: &m, rho: &rho, p: &p, walls: x.len() };
 /// let k = Consts { h: 0.08, eta2: 0.0, c0: 10.0 };
 /// let d = Dest { i: 0, v: v[0], m: m[0], rho: rho[0], p: p[0] };
 /// let (mut acc, mut scratch) = (Acc::default(), PressureMoments::default());
@@ -852,7 +857,7 @@ impl<S: Space> Term<S> for MorrisViscosity<S::Real> {
 /// # let x = [Vector::new([0.0, 0.0]), Vector::new([0.1, 0.0])];
 /// # let v = [Vector::new([1.0, 0.0]), Vector::new([0.0, 0.0])];
 /// # let (m, rho, p) = ([0.01, 0.01], [1.0, 1.02], [2.0, 1.0]);
-/// # let f = Fields::<D2<f64>> { x: &x, v: &v, m: &m, rho: &rho, p: &p };
+/// # let f = Fields::<D2<f64>> { x: &x, v: &v, m: &m, rho: &rho, p: &p, walls: x.len() };
 /// # let k = Consts { h: 0.13, eta2: 1e-6, c0: 10.0 };
 /// # let dest = |i: usize| Dest { i, v: v[i], m: m[i], rho: rho[i], p: p[i] };
 /// # // Kernel value and F = (1/r) dW/dr (negative) of the pair, by hand.
@@ -922,7 +927,7 @@ impl<S: Space> Term<S> for PiViscosity<S::Real> {
 /// # let x = [Vector::new([0.0, 0.0]), Vector::new([0.1, 0.0])];
 /// # let v = [Vector::new([1.0, 0.0]), Vector::new([0.0, 0.0])];
 /// # let (m, rho, p) = ([0.01, 0.01], [1.0, 1.02], [2.0, 1.0]);
-/// # let f = Fields::<D2<f64>> { x: &x, v: &v, m: &m, rho: &rho, p: &p };
+/// # let f = Fields::<D2<f64>> { x: &x, v: &v, m: &m, rho: &rho, p: &p, walls: x.len() };
 /// # let k = Consts { h: 0.13, eta2: 1e-6, c0: 10.0 };
 /// # let dest = |i: usize| Dest { i, v: v[i], m: m[i], rho: rho[i], p: p[i] };
 /// # // Kernel value and F = (1/r) dW/dr (negative) of the pair, by hand.
@@ -1303,7 +1308,7 @@ impl<S: Space> Term<S> for AnyViscosity<S::Real> {
 /// # let x = [Vector::new([0.0, 0.0]), Vector::new([0.1, 0.0])];
 /// # let v = [Vector::new([1.0, 0.0]), Vector::new([0.0, 0.0])];
 /// # let (m, rho, p) = ([0.01, 0.01], [1.0, 1.02], [2.0, 1.0]);
-/// # let f = Fields::<D2<f64>> { x: &x, v: &v, m: &m, rho: &rho, p: &p };
+/// # let f = Fields::<D2<f64>> { x: &x, v: &v, m: &m, rho: &rho, p: &p, walls: x.len() };
 /// # let k = Consts { h: 0.13, eta2: 1e-6, c0: 10.0 };
 /// # let dest = |i: usize| Dest { i, v: v[i], m: m[i], rho: rho[i], p: p[i] };
 /// # // Kernel value and F = (1/r) dW/dr (negative) of the pair, by hand.
@@ -1450,6 +1455,15 @@ impl<S: Space> Term<S> for Shifting<S::Real> {
 /// from the local one by a fraction `(gamma - 1) (rho / rho0 - 1)` (a few
 /// per cent of a small correction at 1 % compression).
 ///
+/// Wall particles ([`Fields::walls`]) are left out of the sum, as in
+/// DualSPHysics' `DDT2`: a wall particle's density is set from the wall's
+/// extrapolated pressure every pass rather than integrated, so density
+/// diffused into it would leave the fluid for good (the volume-weighted
+/// rates of fluid pairs cancel; those of a fluid-wall pair do not), and
+/// diffusing a particle approaching a wall towards the wall's smoother
+/// density takes away the compression that holds it off the wall.
+/// Mirrored ghosts carry their fluid particle's density and stay in.
+///
 /// ```
 /// # use sph_core::prelude::*;
 /// # use sph_core::terms::{Acc, Consts, Dest, Fields, Pair};
@@ -1457,7 +1471,7 @@ impl<S: Space> Term<S> for Shifting<S::Real> {
 /// # let x = [Vector::new([0.0, 0.0]), Vector::new([0.1, 0.0])];
 /// # let v = [Vector::new([1.0, 0.0]), Vector::new([0.0, 0.0])];
 /// # let (m, rho, p) = ([0.01, 0.01], [1.0, 1.02], [2.0, 1.0]);
-/// # let f = Fields::<D2<f64>> { x: &x, v: &v, m: &m, rho: &rho, p: &p };
+/// # let f = Fields::<D2<f64>> { x: &x, v: &v, m: &m, rho: &rho, p: &p, walls: x.len() };
 /// # let k = Consts { h: 0.13, eta2: 1e-6, c0: 10.0 };
 /// # let dest = |i: usize| Dest { i, v: v[i], m: m[i], rho: rho[i], p: p[i] };
 /// # // Kernel value and F = (1/r) dW/dr (negative) of the pair, by hand.
@@ -1485,6 +1499,12 @@ impl<S: Space> Term<S> for Shifting<S::Real> {
 /// let a0 = one(&|d, q, a| at_rest.pair(&k, d, &f, q, a), 0, 1);
 /// assert!(a0.drho.abs() < 1e-12);
 /// assert!(at_rest.hydrostatic(Vector::new([f64::NAN, 0.0])).validate().is_err());
+/// // A wall particle (index `walls` and above) takes no part: its density
+/// // comes from the wall's extrapolated pressure, not from a balance of
+/// // mass, so what it gave or took would be lost.
+/// let f = Fields { walls: 1, ..f };
+/// let a0 = one(&|d, q, a| t.pair(&k, d, &f, q, a), 0, 1);
+/// assert_eq!(a0.drho, 0.0);
 /// ```
 #[derive(Clone, Copy, Debug)]
 pub struct DensityDiffusion<S: Space> {
@@ -1525,6 +1545,9 @@ impl<S: Space> Term<S> for DensityDiffusion<S> {
     #[inline(always)]
     fn pair(&self, k: &Consts<S>, d: &Dest<S>, f: &Fields<'_, S>, p: &Pair<S>, acc: &mut Acc<S>) {
         let j = p.j;
+        if j >= f.walls {
+            return;
+        }
         let coeff = S::Real::TWO * self.delta * k.h * k.c0 * f.m[j] / f.rho[j];
         // `x - 0` is `x`: without a gradient the plain term's bits.
         let difference = (d.rho - f.rho[j]) - self.gradient.dot(p.r_ij);

@@ -863,6 +863,7 @@ fn shift_of(t: &Shifting<f64>, x: &[V2], h: f64) -> V2 {
         m: &m,
         rho: &rho,
         p: &p,
+        walls: n,
     };
     let k = Consts {
         h,
