@@ -560,8 +560,7 @@ pub fn run_with(scene: &Scene, ctl: &mut RunControl<'_>) -> Result<RunRecord> {
         by_dim(scene, &Serial, &mut inner)?
     } else {
         let pool = crate::driver::thread_pool(threads)?;
-        let n = estimate_particles(scene);
-        let min_chunk = (n / (4 * threads)).max(64);
+        let min_chunk = min_chunk(scene, threads);
         pool.install(|| by_dim(scene, &Rayon { min_chunk }, &mut inner))?
     };
     ctl.progress.finish();
@@ -716,6 +715,36 @@ pub fn ramp_factor(t: f64, ramp: f64) -> f64 {
     }
 }
 
+/// The smallest piece a pass is split into on `threads` threads: about
+/// four pieces per thread of the fluid's own particles, not the box's (a
+/// dam break fills an eighth of its tank: pieces sized from the box left
+/// the whole fluid in one piece, on one thread).
+fn min_chunk(scene: &Scene, threads: usize) -> usize {
+    (estimate_fluid(scene) / (4 * threads.max(1))).max(64)
+}
+
+/// The fluid's particle count, estimated without building the lattice (a
+/// scene too large for memory is refused after this, before anything is
+/// allocated): the given initial points, or the regions' volume inside the
+/// box over `dx^dim`, at most the box's count.
+fn estimate_fluid(scene: &Scene) -> usize {
+    if let Some(points) = &scene.initial {
+        return points.len();
+    }
+    let mut volume = 0.0;
+    for r in &scene.regions {
+        let mut v = 1.0;
+        for a in 0..scene.dim {
+            let lo = r.lo[a].max(scene.origin[a]);
+            let hi = r.hi[a].min(scene.origin[a] + scene.extent[a]);
+            v *= ((hi - lo) / scene.dx).max(0.0);
+        }
+        volume += v;
+    }
+    (volume as usize).min(estimate_particles(scene))
+}
+
+/// The box's particle count at spacing `dx` (an upper bound on the fluid's).
 fn estimate_particles(scene: &Scene) -> usize {
     let mut n = 1.0;
     for a in 0..scene.dim {
@@ -1700,5 +1729,28 @@ where
         v: solver.velocities().iter().map(|v| vec3::<S>(*v)).collect(),
         rho: solver.densities().iter().map(|r| r.to_f64()).collect(),
         p: solver.pressures().iter().map(|p| p.to_f64()).collect(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every case at its default resolution splits its fluid into at least
+    /// one piece per thread, whatever part of its box the fluid fills.
+    #[test]
+    fn passes_split_the_fluid_not_the_box() {
+        for case in crate::cases::CASES.iter().filter(|c| c.name != "custom") {
+            let scene = crate::cases::scene(&(case.defaults)()).unwrap();
+            let n = lattice(&scene).len();
+            for threads in [2, 4] {
+                let chunk = min_chunk(&scene, threads);
+                assert!(
+                    chunk == 64 || n / chunk >= threads,
+                    "{}: {n} particles in pieces of {chunk} on {threads} threads",
+                    case.name
+                );
+            }
+        }
     }
 }
