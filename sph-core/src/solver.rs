@@ -385,8 +385,8 @@ struct Arrays<'a, S: Space> {
 }
 
 /// The fluid particles within the kernel's support of a point, for the
-/// wall particles' gather (serial, in cell order: the same sums for any
-/// thread count).
+/// wall particles' gather (in cell order: the same sums for any split of
+/// the wall particles over threads).
 struct FluidNear<'s, S: Space, K: Kernel, M: Math<S::Real>> {
     kernel: &'s SmoothingKernel<S, K, M>,
     grid: &'s Grid<S>,
@@ -1242,7 +1242,7 @@ where
         }
         let n = self.n;
         self.a.m[..n].fill(S::Real::ONE);
-        self.sync_ghost_kinematics(false);
+        self.sync_ghost_kinematics(exec, false)?;
         if let Some(spacing) = self.domain.wall_particles() {
             // In units of the fluid's volume, as the fluid's unit masses.
             let unit = (0..S::DIM).fold(1.0, |u, _| u * spacing.to_f64());
@@ -1271,55 +1271,72 @@ where
         self.calibrate_mass_with(&Serial, rho0)
     }
 
-    fn sync_ghost_kinematics(&mut self, homogeneous: bool) {
+    /// Ghost velocities and masses, through the executor: each ghost writes
+    /// only its own slots, and a wall particle's gather runs in cell order,
+    /// so any split gives the same bits.
+    fn sync_ghost_kinematics<E: Executor>(&mut self, exec: &E, homogeneous: bool) -> Result<()> {
         let n = self.n;
         let total = n + self.n_ghost;
-        let (fluid_v, ghost_v) = self.a.ve.split_at_mut(n);
-        let (fluid_m, ghost_m) = self.a.m.split_at_mut(n);
         let curved = !homogeneous && self.curved_walls;
         let rho0 = self.params.eos.density::<M>(S::Real::ZERO, S::Real::ONE);
+        let domain = &self.domain;
+        let Arrays {
+            x, ve, m, ghosts, ..
+        } = &mut self.a;
+        let ghosts = &ghosts[..self.n_ghost];
+        let (fluid_v, ghost_v) = ve[..total].split_at_mut(n);
+        let (fluid_m, ghost_m) = m[..total].split_at_mut(n);
+        let (fluid_v, fluid_m) = (&*fluid_v, &*fluid_m);
         let near = FluidNear {
             kernel: &self.kernel,
             grid: &self.grid,
             cells: self.cells.view(),
-            x: &self.a.x[..total],
+            x: &x[..total],
             n,
         };
-        for (k, g) in self.a.ghosts[..self.n_ghost].iter().enumerate() {
-            if g.mirrors & boundary::WALL_PARTICLE != 0 {
-                // The Shepard average of the fluid velocity, through the rule
-                // of the wall the particle lies behind.
-                let (mut sum_w, mut sum_v) = (S::Real::ZERO, S::Vector::zero());
-                near.visit(n + k, |j, w, _| {
-                    sum_w += w;
-                    sum_v += fluid_v[j] * w;
-                });
-                let average = if sum_w > S::Real::ZERO {
-                    sum_v * (S::Real::ONE / sum_w)
-                } else {
-                    S::Vector::zero()
-                };
-                let bits = g.mirrors & !boundary::WALL_PARTICLE;
-                ghost_v[k] = boundary::mirror_velocity(&self.domain, average, bits, homogeneous);
-                let volume = boundary::wall_particle_volume(&self.domain, near.x[n + k]);
-                ghost_m[k] = rho0 * S::Real::from_f64(volume);
-                continue;
+        run_checked(exec, (ghost_v, ghost_m), &|start,
+                                                (ghost_v, ghost_m): (
+            &mut [S::Vector],
+            &mut [S::Real],
+        )| {
+            for (k, (vk, mk)) in ghost_v.iter_mut().zip(ghost_m.iter_mut()).enumerate() {
+                let g = ghosts[start + k];
+                let i = n + start + k;
+                if g.mirrors & boundary::WALL_PARTICLE != 0 {
+                    // The Shepard average of the fluid velocity, through the
+                    // rule of the wall the particle lies behind.
+                    let (mut sum_w, mut sum_v) = (S::Real::ZERO, S::Vector::zero());
+                    near.visit(i, |j, w, _| {
+                        sum_w += w;
+                        sum_v += fluid_v[j] * w;
+                    });
+                    let average = if sum_w > S::Real::ZERO {
+                        sum_v * (S::Real::ONE / sum_w)
+                    } else {
+                        S::Vector::zero()
+                    };
+                    let bits = g.mirrors & !boundary::WALL_PARTICLE;
+                    *vk = boundary::mirror_velocity(domain, average, bits, homogeneous);
+                    let volume = boundary::wall_particle_volume(domain, near.x[i]);
+                    *mk = rho0 * S::Real::from_f64(volume);
+                    continue;
+                }
+                let s = g.source as usize;
+                if let Some((vg, jacobian)) =
+                    boundary::shaped_ghost(domain, near.x[s], fluid_v[s], g.mirrors, homogeneous)
+                {
+                    *vk = vg;
+                    *mk = fluid_m[s] * jacobian;
+                    continue;
+                }
+                *vk = boundary::mirror_velocity(domain, fluid_v[s], g.mirrors, homogeneous);
+                if curved {
+                    *vk += boundary::curvature_correction(domain, near.x[s], g.mirrors);
+                }
+                *mk = fluid_m[s];
             }
-            let s = g.source as usize;
-            if let Some((vg, jacobian)) =
-                boundary::shaped_ghost(&self.domain, near.x[s], fluid_v[s], g.mirrors, homogeneous)
-            {
-                ghost_v[k] = vg;
-                ghost_m[k] = fluid_m[s] * jacobian;
-                continue;
-            }
-            ghost_v[k] =
-                boundary::mirror_velocity(&self.domain, fluid_v[s], g.mirrors, homogeneous);
-            if curved {
-                ghost_v[k] += boundary::curvature_correction(&self.domain, near.x[s], g.mirrors);
-            }
-            ghost_m[k] = fluid_m[s];
-        }
+            Ok(())
+        })
     }
 
     fn sync_ghost_positions(&mut self) {
@@ -1336,56 +1353,73 @@ where
         }
     }
 
-    fn sync_ghost_thermo(&mut self) {
+    /// Ghost densities and pressures, through the executor (as
+    /// [`Self::sync_ghost_kinematics`]: the same bits for any split).
+    fn sync_ghost_thermo<E: Executor>(&mut self, exec: &E) -> Result<()> {
         let n = self.n;
         let total = n + self.n_ghost;
-        let (fluid_rho, ghost_rho) = self.a.rho.split_at_mut(n);
-        let (fluid_p, ghost_p) = self.a.p.split_at_mut(n);
         let gravity = self.domain.wall_gravity();
         let eos = self.params.eos;
         // The fallback density for a wall pressure the equation cannot invert.
         let rho0 = eos.density::<M>(S::Real::ZERO, S::Real::ONE);
+        let domain = &self.domain;
+        let Arrays {
+            x, rho, p, ghosts, ..
+        } = &mut self.a;
+        let ghosts = &ghosts[..self.n_ghost];
+        let (fluid_rho, ghost_rho) = rho[..total].split_at_mut(n);
+        let (fluid_p, ghost_p) = p[..total].split_at_mut(n);
+        let (fluid_rho, fluid_p) = (&*fluid_rho, &*fluid_p);
         let near = FluidNear {
             kernel: &self.kernel,
             grid: &self.grid,
             cells: self.cells.view(),
-            x: &self.a.x[..total],
+            x: &x[..total],
             n,
         };
-        for (k, g) in self.a.ghosts[..self.n_ghost].iter().enumerate() {
-            let s = g.source as usize;
-            if g.mirrors & boundary::WALL_PARTICLE != 0 {
-                // p_w = (sum_f p_f W + g . sum_f rho_f r_wf W) / sum_f W.
-                let (mut sum_w, mut sum_p, mut sum_r) =
-                    (S::Real::ZERO, S::Real::ZERO, S::Vector::zero());
-                near.visit(n + k, |j, w, r_wf| {
-                    sum_w += w;
-                    sum_p += fluid_p[j] * w;
-                    sum_r += r_wf * (fluid_rho[j] * w);
-                });
-                let mut p = S::Real::ZERO;
-                if sum_w > S::Real::ZERO {
-                    p = sum_p;
-                    if let Some(g) = gravity {
-                        p += g.dot(sum_r);
+        run_checked(exec, (ghost_rho, ghost_p), &|start,
+                                                  (ghost_rho, ghost_p): (
+            &mut [S::Real],
+            &mut [S::Real],
+        )| {
+            for (k, (rk, pk)) in ghost_rho.iter_mut().zip(ghost_p.iter_mut()).enumerate() {
+                let g = ghosts[start + k];
+                let i = n + start + k;
+                let s = g.source as usize;
+                if g.mirrors & boundary::WALL_PARTICLE != 0 {
+                    // p_w = (sum_f p_f W + g . sum_f rho_f r_wf W) / sum_f W.
+                    let (mut sum_w, mut sum_p, mut sum_r) =
+                        (S::Real::ZERO, S::Real::ZERO, S::Vector::zero());
+                    near.visit(i, |j, w, r_wf| {
+                        sum_w += w;
+                        sum_p += fluid_p[j] * w;
+                        sum_r += r_wf * (fluid_rho[j] * w);
+                    });
+                    let mut pw = S::Real::ZERO;
+                    if sum_w > S::Real::ZERO {
+                        pw = sum_p;
+                        if let Some(g) = gravity {
+                            pw += g.dot(sum_r);
+                        }
+                        pw *= S::Real::ONE / sum_w;
                     }
-                    p *= S::Real::ONE / sum_w;
+                    *pk = pw;
+                    *rk = eos.density::<M>(pw, rho0);
+                    continue;
                 }
-                ghost_p[k] = p;
-                ghost_rho[k] = eos.density::<M>(p, rho0);
-                continue;
+                let Some(gravity) = gravity else {
+                    *rk = fluid_rho[s];
+                    *pk = fluid_p[s];
+                    continue;
+                };
+                // The wall's normal momentum balance (`Domain::with_wall_gravity`).
+                let offset = boundary::image_offset(domain, near.x[s], g.mirrors);
+                let pg = fluid_p[s] + fluid_rho[s] * gravity.dot(offset);
+                *pk = pg;
+                *rk = eos.density::<M>(pg, fluid_rho[s]);
             }
-            let Some(gravity) = gravity else {
-                ghost_rho[k] = fluid_rho[s];
-                ghost_p[k] = fluid_p[s];
-                continue;
-            };
-            // The wall's normal momentum balance (`Domain::with_wall_gravity`).
-            let offset = boundary::image_offset(&self.domain, near.x[s], g.mirrors);
-            let p = fluid_p[s] + fluid_rho[s] * gravity.dot(offset);
-            ghost_p[k] = p;
-            ghost_rho[k] = eos.density::<M>(p, fluid_rho[s]);
-        }
+            Ok(())
+        })
     }
 
     /// Runs a density group into `rho_aux[..n]`; with neighbour lists it also
@@ -1562,7 +1596,7 @@ where
     fn evaluate<E: Executor>(&mut self, exec: &E) -> Result<()> {
         let n = self.n;
         self.update_neighbours(exec)?;
-        self.sync_ghost_kinematics(false);
+        self.sync_ghost_kinematics(exec, false)?;
         if !D::EMPTY {
             let density = self.density;
             self.run_density(exec, &density)?;
@@ -1588,7 +1622,7 @@ where
                 Ok(())
             })?;
         }
-        self.sync_ghost_thermo();
+        self.sync_ghost_thermo(exec)?;
         self.run_forces::<E, false>(exec)
     }
 
@@ -1726,7 +1760,7 @@ where
             for i in 0..n {
                 self.a.ve[i] *= scale;
             }
-            self.sync_ghost_kinematics(true);
+            self.sync_ghost_kinematics(exec, true)?;
             self.run_forces::<E, true>(exec)?;
             let norm = M::sqrt(S::Real::from_f64(
                 self.a.dv[..n]
