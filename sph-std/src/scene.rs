@@ -1084,10 +1084,20 @@ impl<E: Executor> Context<'_, '_, E> {
                 ghosts += walls * (face * slab) as usize;
             }
         }
-        // A shaped wall mirrors at most every fluid particle once; wall
-        // particles fill a shell at most two support radii deep.
-        let wall_particles = sph_core::boundary::wall_particle_count(&domain, f(2.0 * h * kappa));
-        let capacity = n + 2 * ghosts + n * s.shaped_walls.len() + wall_particles;
+        // A shaped wall mirrors at most every fluid particle once. Wall
+        // particles replace the planar walls' mirrors and fill a shell as
+        // deep as the neighbour-list radius (half a spacing added, against
+        // rounding at the last layer).
+        let (mirrored, wall_particles) = if domain.wall_particles().is_some() {
+            let depth = (1.0 + SKIN) * h * kappa + 0.5 * s.dx;
+            (
+                0,
+                sph_core::boundary::wall_particle_count(&domain, f(depth)),
+            )
+        } else {
+            (2 * ghosts, 0)
+        };
+        let capacity = n + mirrored + n * s.shaped_walls.len() + wall_particles;
         let cells = Solver::<S, K, M, D, T>::cells_needed(&domain, f(h))?;
         let width = crate::driver::list_width(S::DIM, kappa, s.physics.beta, SKIN);
         let mut buffers = Buffers::<S>::new(capacity, cells).with_lists(width);
