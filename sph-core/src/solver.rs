@@ -86,13 +86,14 @@ pub struct Storage<'a, S: Space> {
     pub cell_sorted: &'a mut [u32],
     /// Cell list: cell of each particle (capacity entries).
     pub cell_index: &'a mut [u32],
-    /// Neighbour lists: one row of `width` entries per particle slot
-    /// (`capacity * width` entries), or empty to scan the cells in every
-    /// pass (least memory). A particle with more than `width` neighbours
-    /// within `(1 + skin) R` is reported as [`Error::CapacityExceeded`].
+    /// Neighbour lists: one row of `width` entries per fluid particle
+    /// (`n_fluid * width` entries: ghosts and wall particles gather from
+    /// none, so they need no row), or empty to scan the cells in every pass
+    /// (least memory). A particle with more than `width` neighbours within
+    /// `(1 + skin) R` is reported as [`Error::CapacityExceeded`].
     pub neighbours: &'a mut [u32],
-    /// Entries used in each row of `neighbours` (capacity entries, or empty
-    /// together with `neighbours`).
+    /// Entries used in each row of `neighbours` (`n_fluid` entries, or
+    /// empty together with `neighbours`).
     pub neighbour_counts: &'a mut [u32],
     /// Shifting velocities (capacity entries) when the force group shifts
     /// particles (see [`crate::terms::Shifting`]); otherwise may be empty.
@@ -972,7 +973,7 @@ where
         domain.validate()?;
         let kernel = SmoothingKernel::<S, K, M>::new(params.h)?;
         let cap = storage.x.len();
-        let list_width = Self::check_lists(&storage, cap)?;
+        let list_width = Self::check_lists(&storage, cap, n_fluid)?;
         let list_radius = if list_width > 0 {
             kernel.radius() * (S::Real::ONE + params.skin)
         } else {
@@ -1157,7 +1158,7 @@ where
     }
 
     /// The width of the neighbour-list rows (0 without lists).
-    fn check_lists(storage: &Storage<'_, S>, cap: usize) -> Result<usize> {
+    fn check_lists(storage: &Storage<'_, S>, cap: usize, n_fluid: usize) -> Result<usize> {
         if storage.neighbours.is_empty() && storage.neighbour_counts.is_empty() {
             return Ok(0);
         }
@@ -1168,18 +1169,19 @@ where
                 rule: "neighbour lists need sph-core's `neighbour-lists` feature",
             });
         }
-        let width = storage.neighbours.len() / cap.max(1);
-        if width == 0 || width * cap != storage.neighbours.len() {
+        let rows = n_fluid.max(1);
+        let width = storage.neighbours.len() / rows;
+        if width == 0 || width * rows != storage.neighbours.len() {
             return Err(Error::LengthMismatch {
                 buffer: "neighbours",
-                expected: cap * width.max(1),
+                expected: rows * width.max(1),
                 got: storage.neighbours.len(),
             });
         }
-        if storage.neighbour_counts.len() != cap {
+        if storage.neighbour_counts.len() != rows {
             return Err(Error::LengthMismatch {
                 buffer: "neighbour_counts",
-                expected: cap,
+                expected: rows,
                 got: storage.neighbour_counts.len(),
             });
         }

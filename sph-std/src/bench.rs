@@ -382,7 +382,7 @@ where
     };
     let mut b = Buffers::<S>::new(n + spare, cells);
     if let Some(skin) = options.skin {
-        b = b.with_lists(crate::driver::list_width(d, 2.0, options.beta, skin));
+        b = b.with_lists(n, crate::driver::list_width(d, 2.0, options.beta, skin));
     }
     let mut rng = Rng(0x5eed_1234_abcd_0001);
     let (c0, rho0) = (10.0, 1.0);
@@ -504,7 +504,7 @@ fn couette<E: Executor>(cfg: &BenchConfig, exec: &E) -> Result<BenchReport> {
     let cap = n + 2 * rows * nx;
     let mut b = Buffers::<D2<f64>>::new(cap, cells);
     if cfg.lists {
-        b = b.with_lists(crate::driver::list_width(2, 2.0, 1.3, cfg.skin));
+        b = b.with_lists(n, crate::driver::list_width(2, 2.0, 1.3, cfg.skin));
     }
     for j in 0..across {
         for i in 0..nx {

@@ -141,12 +141,12 @@ impl<S: Space> Buffers<S> {
         self
     }
 
-    /// Adds Verlet neighbour lists of `width` entries per particle slot (see
-    /// `sph_core::solver::Storage::neighbours`); [`list_width`] suggests one.
-    pub fn with_lists(mut self, width: usize) -> Self {
-        let capacity = self.x.len();
-        self.neighbours = vec![0; capacity * width];
-        self.neighbour_counts = vec![0; capacity];
+    /// Adds Verlet neighbour lists: a row of `width` entries for each of the
+    /// `fluid` particles (see `sph_core::solver::Storage::neighbours`; ghosts
+    /// need none); [`list_width`] suggests a width.
+    pub fn with_lists(mut self, fluid: usize, width: usize) -> Self {
+        self.neighbours = vec![0; fluid * width];
+        self.neighbour_counts = vec![0; fluid];
         self
     }
 

@@ -1100,7 +1100,7 @@ impl<E: Executor> Context<'_, '_, E> {
         let capacity = n + mirrored + n * s.shaped_walls.len() + wall_particles;
         let cells = Solver::<S, K, M, D, T>::cells_needed(&domain, f(h))?;
         let width = crate::driver::list_width(S::DIM, kappa, s.physics.beta, SKIN);
-        let mut buffers = Buffers::<S>::new(capacity, cells).with_lists(width);
+        let mut buffers = Buffers::<S>::new(capacity, cells).with_lists(n, width);
         if T::SHIFTS {
             buffers = buffers.with_shifting();
         }

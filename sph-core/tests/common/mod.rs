@@ -22,6 +22,7 @@ pub struct Buffers<S: Space> {
     neighbours: Vec<u32>,
     neighbour_counts: Vec<u32>,
     pub shift: Vec<S::Vector>,
+    fluid: usize,
 }
 
 impl<S: Space> Buffers<S> {
@@ -56,14 +57,14 @@ impl<S: Space> Buffers<S> {
             neighbours: Vec::new(),
             neighbour_counts: Vec::new(),
             shift: Vec::new(),
+            fluid: x.len(),
         }
     }
 
-    /// Adds Verlet-list buffers of `width` entries per particle slot.
+    /// Adds Verlet-list buffers of `width` entries per fluid particle.
     pub fn with_lists(mut self, width: usize) -> Self {
-        let cap = self.x.len();
-        self.neighbours = vec![0; cap * width];
-        self.neighbour_counts = vec![0; cap];
+        self.neighbours = vec![0; self.fluid * width];
+        self.neighbour_counts = vec![0; self.fluid];
         self
     }
 
