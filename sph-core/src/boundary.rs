@@ -317,6 +317,10 @@ impl AxisLattice {
 /// Calls `f(position, wall bit, volume)` for every wall particle of the
 /// box's planar walls ([`Domain::with_wall_particles`]) within `radius` of
 /// the box, in a fixed order; does nothing without wall particles.
+///
+/// The bit names the wall whose rule the particle follows: in a corner, a
+/// moving no-slip wall (a lid claims its corners), else the wall it lies
+/// deepest behind.
 pub fn for_each_wall_particle<S: Space>(
     domain: &Domain<S>,
     radius: S::Real,
@@ -343,6 +347,18 @@ pub fn for_each_wall_particle<S: Space>(
             }
         }
     });
+    // A moving no-slip wall claims the corners it meets, as a lid extends
+    // over them: its wall particles' velocity `2 V_w - v~` then continues
+    // along the wall into the corner. Split by depth, the corner would hold
+    // particles at `-v~` beside the lid's `2 V_w - v~` along the lid, a jump
+    // the continuity equation reads as a compression (a lid-driven cavity
+    // with continuity density lost its corner particle through the lid).
+    let moves = |a: usize, side: u8| {
+        let side = if side == 0 { Side::Lower } else { Side::Upper };
+        domain.wall(a, side).is_some_and(|w| {
+            w.kind == crate::domain::WallKind::NoSlip && w.velocity.norm2() > S::Real::ZERO
+        })
+    };
     let radius2 = radius * radius;
     for k2 in 0..axes[2].len() {
         let p2 = axes[2].point(k2);
@@ -360,6 +376,7 @@ pub fn for_each_wall_particle<S: Space>(
                 let points = [p0, p1, p2];
                 let mut depth2 = 0.0;
                 let mut deepest: Option<(f64, u8)> = None;
+                let mut moving: Option<(f64, u8)> = None;
                 let mut volume = 1.0;
                 let mut x = S::Vector::zero();
                 for (a, &(c, width, behind)) in points.iter().enumerate().take(S::DIM) {
@@ -367,12 +384,16 @@ pub fn for_each_wall_particle<S: Space>(
                     volume *= width;
                     if let Some((d, side)) = behind {
                         depth2 += d * d;
+                        let bit = 2 * a as u8 + side;
                         if deepest.is_none_or(|(best, _)| d > best) {
-                            deepest = Some((d, 2 * a as u8 + side));
+                            deepest = Some((d, bit));
+                        }
+                        if moves(a, side) && moving.is_none_or(|(best, _)| d > best) {
+                            moving = Some((d, bit));
                         }
                     }
                 }
-                if let Some((_, bit)) = deepest {
+                if let Some((_, bit)) = moving.or(deepest) {
                     if depth2 < radius2 {
                         f(x, bit, volume);
                     }
@@ -659,6 +680,17 @@ mod tests {
         assert!((volume - (1.4f64 * 1.4 - 1.0)).abs() < 1e-12, "{volume}");
         // Deeper behind the x wall (0.15) than the y wall: the x wall's rule.
         assert_eq!(corner_bits, [0]);
+        // Unless the y wall moves: a lid claims its corners.
+        let lid = walls(Domain::new(V2::new([0.0, 0.0]), V2::new([1.0, 1.0])).unwrap())
+            .with_wall(1, Side::Lower, Wall::moving(V2::new([1.0, 0.0])))
+            .unwrap();
+        let mut claimed = std::vec::Vec::new();
+        for_each_wall_particle(&lid, 0.25, |x, bit, _| {
+            if x[1] < 0.0 && (x[0] < 0.0 || x[0] > 1.0) {
+                claimed.push(bit);
+            }
+        });
+        assert_eq!(claimed, [2; 8]);
         // A box 1.03 wide: 10 points along it, 0.103 apart, no gap.
         let d = walls(Domain::new(V2::new([0.0, 0.0]), V2::new([1.03, 1.0])).unwrap());
         let mut xs = std::vec::Vec::new();
