@@ -5,7 +5,9 @@
 //! - cell-list build (counting sort) against N;
 //! - neighbour search: cell list (build + visit) against brute force, to find
 //!   the crossover;
-//! - one force pass (pressure + Morris) over a disordered 2D box.
+//! - one force pass (pressure + Morris) over a disordered 2D box;
+//! - whole steps of `sph bench`'s 2D box, summation or continuity density,
+//!   `f64` or `f32` (`-- steps`).
 
 use divan::{black_box, Bencher};
 use sph_core::boundary::Ghost;
@@ -252,6 +254,147 @@ mod rates {
             (
                 PressureGradient,
                 AnyViscosity::Morris(MorrisViscosity { mu: 1e-3 }),
+            ),
+        );
+    }
+}
+
+/// Whole steps of the benchmark box (`sph bench`'s box2d: a jittered
+/// lattice in a periodic unit square, random velocities at Mach 0.05, cubic
+/// spline `h = 1.3 dx`, pressure and Morris viscosity, Verlet lists with skin
+/// 0.1, reordered at every rebuild), after 300 warm-up steps, in the
+/// configurations a user chooses between: summation or continuity density,
+/// `f64` or `f32`. Items are particle-steps, so divan's rate is particle-steps
+/// per second: `cargo bench -p sph-core --bench core -- steps`.
+mod steps {
+    use super::*;
+    use sph_core::math::Math;
+
+    /// Particles, as a 200 x 200 lattice.
+    const SIDE: usize = 200;
+
+    fn run<S, D, T>(bencher: Bencher, density: D, forces: T)
+    where
+        S: Space,
+        D: Term<S>,
+        T: Term<S>,
+        Libm: Math<S::Real>,
+    {
+        let n = SIDE * SIDE;
+        let dx = 1.0 / SIDE as f64;
+        let (beta, skin) = (1.3, 0.1);
+        let f = S::Real::from_f64;
+        let pair = |a: f64, b: f64| {
+            let mut v = S::Vector::zero();
+            v[0] = f(a);
+            v[1] = f(b);
+            v
+        };
+        let domain = Domain::<S>::new(S::Global::zero(), S::Vector::splat(f(1.0)))
+            .and_then(|d| d.with_periodic(0))
+            .and_then(|d| d.with_periodic(1))
+            .unwrap();
+        let h = f(beta * dx);
+        let cells = Solver::<S, CubicSpline, Libm, D, T>::cells_needed(&domain, h).unwrap();
+        let r = (1.0 + skin) * 2.0 * beta;
+        let width = (1.5 * std::f64::consts::PI * r * r).ceil() as usize + 8;
+        let (zv, zr) = (S::Vector::zero(), S::Real::ZERO);
+        let mut state = 0x5eed_1234_abcd_0001u64;
+        let mut rnd = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+        };
+        let mut x = vec![zv; n];
+        let mut v = vec![zv; n];
+        for k in 0..n {
+            let (i, j) = ((k % SIDE) as f64, (k / SIDE) as f64);
+            x[k] = pair((i + 0.5 + 0.05 * rnd()) * dx, (j + 0.5 + 0.05 * rnd()) * dx);
+            v[k] = pair(0.5 * rnd(), 0.5 * rnd());
+        }
+        let (mut m, mut rho, mut p) = (vec![f(dx * dx); n], vec![f(1.0); n], vec![zr; n]);
+        let (mut ve, mut dv, mut drho, mut rho_aux) =
+            (vec![zv; n], vec![zv; n], vec![zr; n], vec![zr; n]);
+        let mut ghosts = vec![Ghost::default(); n];
+        let (mut start, mut sorted, mut cell) = (vec![0u32; cells], vec![0u32; n], vec![0u32; n]);
+        let (mut nbr, mut counts) = (vec![0u32; n * width], vec![0u32; n]);
+        let storage = Storage {
+            x: &mut x,
+            v: &mut v,
+            m: &mut m,
+            rho: &mut rho,
+            p: &mut p,
+            ve: &mut ve,
+            dv: &mut dv,
+            drho: &mut drho,
+            rho_aux: &mut rho_aux,
+            ghosts: &mut ghosts,
+            cell_start: &mut start,
+            cell_sorted: &mut sorted,
+            cell_index: &mut cell,
+            neighbours: &mut nbr,
+            neighbour_counts: &mut counts,
+            shift: &mut [],
+        };
+        let eos = Eos::Linear {
+            rho0: f(1.0),
+            c0: f(10.0),
+            p0: zr,
+        };
+        let params = Params::new(h, eos).with_reorder_every(1).with_skin(f(skin));
+        let mut solver =
+            Solver::<S, CubicSpline, Libm, D, T>::new(params, domain, storage, n, density, forces)
+                .unwrap();
+        let dt = 0.5 * solver.limits().min();
+        for _ in 0..300 {
+            solver.step(dt).unwrap();
+        }
+        bencher
+            .counter(divan::counter::ItemsCount::new(n))
+            .bench_local(|| solver.step(dt).unwrap());
+    }
+
+    /// `sph bench`'s default: f64, summation density (two passes a step).
+    #[divan::bench]
+    fn summation_f64(bencher: Bencher) {
+        run::<D2<f64>, _, _>(
+            bencher,
+            SummationDensity,
+            (PressureGradient, MorrisViscosity { mu: 1e-3 }),
+        );
+    }
+
+    /// Continuity density: one pass a step.
+    #[divan::bench]
+    fn continuity_f64(bencher: Bencher) {
+        run::<D2<f64>, _, _>(
+            bencher,
+            (),
+            (Continuity, PressureGradient, MorrisViscosity { mu: 1e-3 }),
+        );
+    }
+
+    /// Summation density in `f32`.
+    #[divan::bench]
+    fn summation_f32(bencher: Bencher) {
+        run::<D2<f32>, _, _>(
+            bencher,
+            SummationDensity,
+            (PressureGradient, MorrisViscosity { mu: 1e-3f32 }),
+        );
+    }
+
+    /// Continuity density in `f32`.
+    #[divan::bench]
+    fn continuity_f32(bencher: Bencher) {
+        run::<D2<f32>, _, _>(
+            bencher,
+            (),
+            (
+                Continuity,
+                PressureGradient,
+                MorrisViscosity { mu: 1e-3f32 },
             ),
         );
     }
