@@ -10,10 +10,13 @@
 //!   `f64` or `f32` (`-- steps`).
 
 use divan::{black_box, Bencher};
-use sph_core::boundary::Ghost;
 use sph_core::kernel::SmoothingKernel;
 use sph_core::neighbour::{brute_force, CellList, Grid};
 use sph_core::prelude::*;
+
+// The integration tests' Vec-owned storage.
+#[path = "../tests/common/mod.rs"]
+mod common;
 
 fn main() {
     divan::main();
@@ -159,37 +162,9 @@ mod rates {
         let (domain, x, radius) = cloud(n);
         let h = radius / 2.0;
         let cells = Solver::<D2<f64>, CubicSpline, Libm, (), ()>::cells_needed(&domain, h).unwrap();
-        let (mut xs, mut v, mut m, mut rho, mut p, mut ve, mut dv) = (
-            x.clone(),
-            vec![V2::zero(); n],
-            vec![h * h / 1.69; n],
-            vec![1.0; n],
-            vec![0.0; n],
-            vec![V2::zero(); n],
-            vec![V2::zero(); n],
-        );
-        let (mut drho, mut rho_aux, mut ghosts) =
-            (vec![0.0; n], vec![0.0; n], vec![Ghost::default(); n]);
-        let (mut start, mut sorted, mut cell) = (vec![0u32; cells], vec![0u32; n], vec![0u32; n]);
-        let (mut nbr, mut counts) = (vec![0u32; n * 48], vec![0u32; n]);
-        let storage = Storage {
-            x: &mut xs,
-            v: &mut v,
-            m: &mut m,
-            rho: &mut rho,
-            p: &mut p,
-            ve: &mut ve,
-            dv: &mut dv,
-            drho: &mut drho,
-            rho_aux: &mut rho_aux,
-            ghosts: &mut ghosts,
-            cell_start: &mut start,
-            cell_sorted: &mut sorted,
-            cell_index: &mut cell,
-            neighbours: &mut nbr,
-            neighbour_counts: &mut counts,
-            shift: &mut [],
-        };
+        let v = vec![V2::zero(); n];
+        let mut b =
+            common::Buffers::<D2<f64>>::new(&x, &v, h * h / 1.69, 1.0, 0, cells).with_lists(48);
         let params = Params::new(
             h,
             Eos::Linear {
@@ -201,7 +176,7 @@ mod rates {
         let s = Solver::<D2<f64>, CubicSpline, Libm, _, _>::new(
             params,
             domain,
-            storage,
+            b.storage(),
             n,
             SummationDensity,
             forces,
@@ -298,7 +273,6 @@ mod steps {
         let cells = Solver::<S, CubicSpline, Libm, D, T>::cells_needed(&domain, h).unwrap();
         let r = (1.0 + skin) * 2.0 * beta;
         let width = (1.5 * std::f64::consts::PI * r * r).ceil() as usize + 8;
-        let (zv, zr) = (S::Vector::zero(), S::Real::ZERO);
         let mut state = 0x5eed_1234_abcd_0001u64;
         let mut rnd = || {
             state ^= state << 13;
@@ -306,46 +280,30 @@ mod steps {
             state ^= state << 17;
             (state >> 11) as f64 / (1u64 << 52) as f64 - 1.0
         };
-        let mut x = vec![zv; n];
-        let mut v = vec![zv; n];
+        let mut x = vec![S::Vector::zero(); n];
+        let mut v = vec![S::Vector::zero(); n];
         for k in 0..n {
             let (i, j) = ((k % SIDE) as f64, (k / SIDE) as f64);
             x[k] = pair((i + 0.5 + 0.05 * rnd()) * dx, (j + 0.5 + 0.05 * rnd()) * dx);
             v[k] = pair(0.5 * rnd(), 0.5 * rnd());
         }
-        let (mut m, mut rho, mut p) = (vec![f(dx * dx); n], vec![f(1.0); n], vec![zr; n]);
-        let (mut ve, mut dv, mut drho, mut rho_aux) =
-            (vec![zv; n], vec![zv; n], vec![zr; n], vec![zr; n]);
-        let mut ghosts = vec![Ghost::default(); n];
-        let (mut start, mut sorted, mut cell) = (vec![0u32; cells], vec![0u32; n], vec![0u32; n]);
-        let (mut nbr, mut counts) = (vec![0u32; n * width], vec![0u32; n]);
-        let storage = Storage {
-            x: &mut x,
-            v: &mut v,
-            m: &mut m,
-            rho: &mut rho,
-            p: &mut p,
-            ve: &mut ve,
-            dv: &mut dv,
-            drho: &mut drho,
-            rho_aux: &mut rho_aux,
-            ghosts: &mut ghosts,
-            cell_start: &mut start,
-            cell_sorted: &mut sorted,
-            cell_index: &mut cell,
-            neighbours: &mut nbr,
-            neighbour_counts: &mut counts,
-            shift: &mut [],
-        };
+        let mut b =
+            common::Buffers::<S>::new(&x, &v, f(dx * dx), f(1.0), 0, cells).with_lists(width);
         let eos = Eos::Linear {
             rho0: f(1.0),
             c0: f(10.0),
-            p0: zr,
+            p0: S::Real::ZERO,
         };
         let params = Params::new(h, eos).with_reorder_every(1).with_skin(f(skin));
-        let mut solver =
-            Solver::<S, CubicSpline, Libm, D, T>::new(params, domain, storage, n, density, forces)
-                .unwrap();
+        let mut solver = Solver::<S, CubicSpline, Libm, D, T>::new(
+            params,
+            domain,
+            b.storage(),
+            n,
+            density,
+            forces,
+        )
+        .unwrap();
         let dt = 0.5 * solver.limits().min();
         for _ in 0..300 {
             solver.step(dt).unwrap();
