@@ -462,6 +462,8 @@ fn execute(
             resume,
             checkpoint_every: every,
             on_checkpoint: &mut on_checkpoint,
+            pause_after: None,
+            refresh: false,
         },
     )?;
     let (reference, written) = publish(&record, record.checkpoint.as_deref())?;

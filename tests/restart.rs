@@ -40,6 +40,8 @@ fn run(
             resume,
             checkpoint_every: every,
             on_checkpoint: &mut keep,
+            pause_after: None,
+            refresh: false,
         },
     )
     .unwrap();
@@ -223,6 +225,8 @@ fn a_checkpoint_of_another_scene_is_refused_with_a_clear_error() {
             resume: Some(&taken[0]),
             checkpoint_every: None,
             on_checkpoint: &mut none,
+            pause_after: None,
+            refresh: false,
         },
     )
     .unwrap_err()

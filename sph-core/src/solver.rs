@@ -1224,6 +1224,21 @@ where
         Ok(())
     }
 
+    /// Re-evaluates everything the particle state determines (ghosts,
+    /// neighbour lists, summation density, rates and the step limits' maxima)
+    /// after the caller changed positions, velocities or densities between
+    /// steps, for instance in the storage of a checkpoint before
+    /// [`Self::resume_with`]. A run resumed without changes needs none of
+    /// this and continues bit for bit without it.
+    ///
+    /// # Errors
+    /// Those of a step's evaluation, such as [`Error::CapacityExceeded`]
+    /// where the new arrangement needs more ghosts or neighbours than the
+    /// storage holds. The caller checks that the values it wrote are finite.
+    pub fn refresh_with<E: Executor>(&mut self, exec: &E) -> Result<()> {
+        self.prepare(exec)
+    }
+
     /// Sets every fluid mass so that summation density gives exactly `rho0`
     /// at each particle in the current arrangement (`m_i = rho0 / sum_j W_ij`,
     /// ghosts included), and with continuity density sets `rho = rho0`.

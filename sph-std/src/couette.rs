@@ -369,6 +369,8 @@ pub fn run_with(
             resume,
             checkpoint_every: None,
             on_checkpoint: &mut |_, _| Ok(()),
+            pause_after: None,
+            refresh: false,
         },
     )?;
     let profiles = record

@@ -29,6 +29,7 @@ pub mod provenance;
 pub mod report;
 pub mod resources;
 pub mod scene;
+pub mod simulation;
 pub mod studies;
 
 pub use sph_core;

@@ -476,8 +476,12 @@ pub struct RunRecord {
     pub stop: Option<Stop>,
     /// The run reached a steady state before its end time.
     pub steady: bool,
-    /// The state where a stop request (SIGINT) halted the run, to resume it.
+    /// The state where a stop request (SIGINT) halted the run, or where a
+    /// run with [`RunControl::pause_after`] paused or ended, to resume it.
     pub checkpoint: Option<Box<Checkpoint>>,
+    /// With [`RunControl::pause_after`]: the fluid's state where the run
+    /// paused or ended (global positions, as the frames).
+    pub state: Option<Frame>,
     /// The scene's own `summary.json` keys ([`Scene::summary`]).
     pub summary: Vec<(String, serde_json::Value)>,
 }
@@ -502,6 +506,33 @@ pub struct RunControl<'a> {
     pub checkpoint_every: Option<f64>,
     /// Receives each periodic checkpoint; an error stops the run with it.
     pub on_checkpoint: &'a mut (dyn FnMut(&RunRecord, &Checkpoint) -> Result<()> + Send),
+    /// Pause after this many steps: the run returns with its resumable state
+    /// in [`RunRecord::checkpoint`] and the fluid's in [`RunRecord::state`]
+    /// (also where it ends sooner, at its end time or a steady state). This
+    /// is how [`crate::simulation::Simulation`] steps a scene.
+    pub pause_after: Option<u64>,
+    /// Re-evaluate the resumed state before the first step
+    /// ([`sph_core::solver::Solver::refresh_with`]): for a checkpoint whose
+    /// particle fields the caller changed. Without changes, leave it off (the
+    /// continuation is then bitwise the uninterrupted run).
+    pub refresh: bool,
+}
+
+impl<'a> RunControl<'a> {
+    /// A plain run: no resume, no checkpoints, no pause.
+    pub fn new(
+        progress: &'a dyn Progress,
+        on_checkpoint: &'a mut (dyn FnMut(&RunRecord, &Checkpoint) -> Result<()> + Send),
+    ) -> Self {
+        Self {
+            progress,
+            resume: None,
+            checkpoint_every: None,
+            on_checkpoint,
+            pause_after: None,
+            refresh: false,
+        }
+    }
 }
 
 /// Runs a scene.
@@ -512,15 +543,7 @@ pub struct RunControl<'a> {
 /// error here: it returns a record with [`RunRecord::stop`] set.
 pub fn run(scene: &Scene, progress: &dyn Progress) -> Result<RunRecord> {
     let mut none = |_: &RunRecord, _: &Checkpoint| Ok(());
-    run_with(
-        scene,
-        &mut RunControl {
-            progress,
-            resume: None,
-            checkpoint_every: None,
-            on_checkpoint: &mut none,
-        },
-    )
+    run_with(scene, &mut RunControl::new(progress, &mut none))
 }
 
 /// Runs a scene with checkpoints, or continues one from a checkpoint: the
@@ -555,6 +578,8 @@ pub fn run_with(scene: &Scene, ctl: &mut RunControl<'_>) -> Result<RunRecord> {
         resume: ctl.resume,
         checkpoint_every: ctl.checkpoint_every,
         on_checkpoint: &mut hook,
+        pause_after: ctl.pause_after,
+        refresh: ctl.refresh,
     };
     let mut record = if threads == 1 {
         by_dim(scene, &Serial, &mut inner)?
@@ -1165,6 +1190,10 @@ impl<E: Executor> Context<'_, '_, E> {
                 forces,
                 ck.state,
             )?;
+            let mut solver = solver;
+            if self.ctl.refresh {
+                solver.refresh_with(exec)?;
+            }
             (solver, ck.limits, ck.dt)
         } else {
             let mut solver = Solver::<S, K, M, D, T>::new_with(
@@ -1291,6 +1320,7 @@ impl<E: Executor> Context<'_, '_, E> {
             stop: None,
             steady: false,
             checkpoint: None,
+            state: None,
             summary: s.summary.clone(),
         };
         let every = s.monitor.every.max(1);
@@ -1298,6 +1328,8 @@ impl<E: Executor> Context<'_, '_, E> {
         // The next checkpoint time: the first multiple of the period ahead.
         let next_after = |t: f64| period.map(|p| ((t / p).floor() + 1.0) * p);
         let mut next_checkpoint = next_after(solver.time());
+        let pause = self.ctl.pause_after;
+        let steps_before = solver.steps();
         let capture = |solver: &Solver<'_, S, K, M, D, T>,
                        record: &RunRecord,
                        budget: Option<[f64; 4]>,
@@ -1352,6 +1384,13 @@ impl<E: Executor> Context<'_, '_, E> {
                 } else {
                     break;
                 };
+                if pause.is_some_and(|p| solver.steps() - steps_before >= p) {
+                    record.steps = solver.steps();
+                    record.checkpoint =
+                        Some(Box::new(capture(&solver, &record, budget, interval, k)));
+                    record.state = Some(frame(&solver, solver.time()));
+                    return Ok(record);
+                }
                 if self.ctl.progress.cancelled() {
                     record.stop = Some(Stop {
                         t: solver.time(),
@@ -1423,6 +1462,12 @@ impl<E: Executor> Context<'_, '_, E> {
         }
         record.steps = solver.steps();
         record.neighbours_mean = crate::bench::mean_neighbours(&solver).ok();
+        if pause.is_some() && record.stop.is_none() {
+            // Ended: a resumption from here takes no step.
+            let ended = capture(&solver, &record, budget, plan.len(), 0);
+            record.checkpoint = Some(Box::new(ended));
+            record.state = Some(frame(&solver, solver.time()));
+        }
         Ok(record)
     }
 
