@@ -12,6 +12,10 @@
 //!   line against the same code run on the host, bit for bit.
 //! - `size`: the firmware's flash and static RAM, with and without the
 //!   simulation and the error reporting, and bytes per particle.
+//! - `c-abi`: build sph-ffi's static library, compile `examples/c/couette.c`
+//!   and `examples/c/smoke.cpp` with the system's C and C++ compilers, run
+//!   them, and check that the C program's Couette errors are `sph
+//!   couette`'s at the same settings, bit for bit.
 
 #[path = "../../examples/firmware/src/scene.rs"]
 #[allow(dead_code)]
@@ -436,6 +440,162 @@ fn size() -> Result<(), String> {
     Ok(())
 }
 
+/// The workspace's target directory.
+fn target_dir() -> PathBuf {
+    env::var_os("CARGO_TARGET_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| root().join("target"))
+}
+
+/// Runs a program to completion; its stdout, or an error with its output.
+fn run_program(cmd: &mut Command, label: &str) -> Result<String, String> {
+    let out = cmd
+        .output()
+        .map_err(|e| format!("{label}: cannot start it: {e}"))?;
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    if !out.status.success() {
+        return fail(format!(
+            "{label} failed ({}):\n{stdout}{}",
+            out.status,
+            String::from_utf8_lossy(&out.stderr)
+        ))
+        .map(|_| String::new());
+    }
+    Ok(stdout)
+}
+
+/// Every number that follows `key` in `text`, in order.
+fn numbers_after(text: &str, key: &str) -> Result<Vec<f64>, String> {
+    text.match_indices(key)
+        .map(|(at, _)| {
+            let rest = text[at + key.len()..].trim_start();
+            let end = rest
+                .find(|c: char| !(c.is_ascii_digit() || "+-.eE".contains(c)))
+                .unwrap_or(rest.len());
+            rest[..end]
+                .parse::<f64>()
+                .map_err(|e| format!("`{key}` followed by `{}`: {e}", &rest[..end]))
+        })
+        .collect()
+}
+
+fn c_abi() -> Result<(), String> {
+    // The test profile: the same optimised build `cargo test` made.
+    run_build(
+        cargo().args([
+            "build",
+            "--profile",
+            "test",
+            "-p",
+            "sph-ffi",
+            "-p",
+            "sph-tool",
+        ]),
+        "sph-ffi and sph",
+    )?;
+    let target = target_dir();
+    let lib = target.join("debug").join("libsph_ffi.a");
+    let out = target.join("c-abi");
+    std::fs::create_dir_all(&out).map_err(|e| format!("{}: {e}", out.display()))?;
+    let include = root().join("sph-ffi").join("include");
+    // Rust's standard library needs these from the system (`cargo rustc
+    // --print native-static-libs` lists them).
+    let system = ["-lpthread", "-ldl", "-lm"];
+    for (compiler, source, standard, exe) in [
+        ("CC", "couette.c", "-std=c99", "couette"),
+        ("CXX", "smoke.cpp", "-std=c++17", "smoke"),
+    ] {
+        let default = if compiler == "CC" { "cc" } else { "c++" };
+        let cc = env::var(compiler).unwrap_or_else(|_| default.into());
+        let mut cmd = Command::new(&cc);
+        cmd.args([standard, "-O2", "-Wall", "-Wextra", "-Werror"])
+            .arg(root().join("examples").join("c").join(source))
+            .arg("-I")
+            .arg(&include)
+            .arg(&lib)
+            .args(system)
+            .arg("-o")
+            .arg(out.join(exe));
+        run_program(&mut cmd, &format!("{cc} {source}"))?;
+    }
+    print!(
+        "{}",
+        run_program(&mut Command::new(out.join("smoke")), "smoke")?
+    );
+    // Settings that no test uses: 16 across to t = 0.15 s.
+    let (across, t_end) = (16, 0.15);
+    let csv = out.join("couette-final.csv");
+    let c = run_program(
+        Command::new(out.join("couette"))
+            .args([across.to_string(), format!("{t_end:?}")])
+            .arg(&csv),
+        "couette (C)",
+    )?;
+    print!("{c}");
+    let dir = out.join("sph-couette");
+    let _ = std::fs::remove_dir_all(&dir);
+    let times = format!("{:?},{:?},{:?}", t_end / 4.0, t_end / 2.0, t_end);
+    let sph = target.join("debug").join("sph");
+    let summary = run_program(
+        Command::new(&sph)
+            .args(["couette", "--particles-across", &across.to_string()])
+            .args(["--t-end", &format!("{t_end:?}"), "--output-times", &times])
+            .args(["--threads", "1", "--quiet", "--json", "--out"])
+            .arg(&dir),
+        "sph couette",
+    )?;
+    // The state: every particle's y and u at the end, bit for bit.
+    let read =
+        |path: &Path| std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()));
+    let rows = |text: &str, skip: usize| -> Result<Vec<(f64, f64)>, String> {
+        text.lines()
+            .skip(1)
+            .map(|line| {
+                let cols: Vec<f64> = line
+                    .split(',')
+                    .map(|c| c.parse::<f64>().map_err(|e| format!("`{line}`: {e}")))
+                    .collect::<Result<_, _>>()?;
+                Ok((cols[skip], cols[skip + 1]))
+            })
+            .collect()
+    };
+    let from_c = rows(&read(&csv)?, 0)?;
+    let profile = read(&dir.join("profile.csv"))?;
+    // profile.csv: t,y,vx,vx_exact at every output time; the last time's rows.
+    let last: String = profile
+        .lines()
+        .filter(|l| l.starts_with(&format!("{t_end:?},")) || l.starts_with(&format!("{t_end},")))
+        .fold(String::from("t,y,vx\n"), |acc, l| acc + l + "\n");
+    let from_cli = rows(&last, 1)?;
+    if from_c.is_empty() || from_c != from_cli {
+        return fail(format!(
+            "the C program's final state ({} particles) is not sph couette's ({} rows at t = {t_end})",
+            from_c.len(),
+            from_cli.len()
+        ));
+    }
+    println!(
+        "state at t = {t_end} s through the C ABI: {} particles, sph couette's bit for bit",
+        from_c.len()
+    );
+    // The errors in u: the C program's own series against sph couette's
+    // (two implementations of the series: agreement to round-off).
+    for (key, json) in [("linf_u", "\"linf\":"), ("l2_u", "\"l2\":")] {
+        let c_value = numbers_after(&c, &format!(" {key} "))?;
+        let cli = numbers_after(&summary, json)?;
+        let (Some(&a), Some(&b)) = (c_value.first(), cli.last()) else {
+            return fail(format!("no {key} figure in the outputs"));
+        };
+        if (a - b).abs() > 1e-9 * b || a.is_nan() {
+            return fail(format!(
+                "{key}: the C program's {a:e} against sph couette's {b:e}"
+            ));
+        }
+        println!("{key} at t = {t_end} s: C series {a:.10e}, sph couette {b:.10e}");
+    }
+    Ok(())
+}
+
 fn main() -> ExitCode {
     let task = env::args().nth(1).unwrap_or_default();
     let result = match task.as_str() {
@@ -443,8 +603,9 @@ fn main() -> ExitCode {
         "deps" => deps(),
         "qemu" => qemu(),
         "size" => size(),
+        "c-abi" => c_abi(),
         _ => {
-            eprintln!("usage: cargo xtask <cross|deps|qemu|size>");
+            eprintln!("usage: cargo xtask <cross|deps|qemu|size|c-abi>");
             return ExitCode::from(2);
         }
     };
