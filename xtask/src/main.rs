@@ -16,6 +16,11 @@
 //!   and `examples/c/smoke.cpp` with the system's C and C++ compilers, run
 //!   them, and check that the C program's Couette errors are `sph
 //!   couette`'s at the same settings, bit for bit.
+//! - `web [--screenshot PATH]`: build the browser module (`web/`, wasm32),
+//!   serve the page on 127.0.0.1, load it in headless Chromium, and check
+//!   the Couette error the page reports after 300 steps against the same
+//!   code run natively, bit for bit; with `--screenshot`, keep a picture.
+//!   `web --serve` only serves the page.
 
 #[path = "../../examples/firmware/src/scene.rs"]
 #[allow(dead_code)]
@@ -596,6 +601,176 @@ fn c_abi() -> Result<(), String> {
     Ok(())
 }
 
+/// The browser's run: 16 across, nu = 1e-6 m^2/s, 80 steps (t* = 0.066: the
+/// profile still curved).
+const WEB_RUN: (&str, &str, &str) = ("16", "1e-6", "80");
+
+fn web() -> Result<(), String> {
+    let args: Vec<String> = env::args().skip(2).collect();
+    let serve_only = args.iter().any(|a| a == "--serve");
+    let screenshot = args
+        .iter()
+        .position(|a| a == "--screenshot")
+        .map(|k| args.get(k + 1).cloned().ok_or("--screenshot needs a path"))
+        .transpose()?;
+    ensure_target("wasm32-unknown-unknown")?;
+    run_build(
+        cargo().args([
+            "build",
+            "--profile",
+            "wasm",
+            "--target",
+            "wasm32-unknown-unknown",
+            "-p",
+            "sph-web",
+        ]),
+        "sph-web (wasm32)",
+    )?;
+    let target = target_dir();
+    let module = target.join("wasm32-unknown-unknown/wasm/sph_web.wasm");
+    let site = target.join("web");
+    std::fs::create_dir_all(&site).map_err(|e| format!("{}: {e}", site.display()))?;
+    for (from, to) in [
+        (root().join("web/index.html"), "index.html"),
+        (root().join("web/app.js"), "app.js"),
+        (module.clone(), "sph_web.wasm"),
+    ] {
+        std::fs::copy(&from, site.join(to)).map_err(|e| format!("{}: {e}", from.display()))?;
+    }
+    let bytes = std::fs::metadata(&module).map(|m| m.len()).unwrap_or(0);
+    println!("wasm module: {bytes} bytes ({})", module.display());
+    // A static server on a free loopback port (it prints the port).
+    let mut server = Command::new("python3")
+        .args([
+            "-u",
+            "-m",
+            "http.server",
+            "0",
+            "--bind",
+            "127.0.0.1",
+            "--directory",
+        ])
+        .arg(&site)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .map_err(|e| format!("python3 -m http.server: {e}"))?;
+    let mut first = String::new();
+    if let Some(out) = server.stdout.take() {
+        use std::io::BufRead;
+        std::io::BufReader::new(out)
+            .read_line(&mut first)
+            .map_err(|e| format!("http.server: {e}"))?;
+    }
+    let port = first
+        .split_whitespace()
+        .skip_while(|w| *w != "port")
+        .nth(1)
+        .map(str::to_owned)
+        .ok_or_else(|| format!("http.server printed `{}`, no port", first.trim()))?;
+    let base = format!("http://127.0.0.1:{port}/");
+    let outcome = if serve_only {
+        println!("serving {base} (Ctrl-C stops)");
+        server.wait().map(|_| ()).map_err(|e| e.to_string())
+    } else {
+        check_page(&base, screenshot.as_deref())
+    };
+    let _ = server.kill();
+    let _ = server.wait();
+    outcome
+}
+
+/// Loads the page's fixed run in headless Chromium and compares its error
+/// with the native reference's.
+fn check_page(base: &str, screenshot: Option<&str>) -> Result<(), String> {
+    let (across, nu, steps) = WEB_RUN;
+    let url = format!("{base}?across={across}&nu={nu}&steps={steps}");
+    let browser = ["chromium", "chromium-browser", "google-chrome"]
+        .into_iter()
+        .find(|b| Command::new(b).arg("--version").output().is_ok())
+        .ok_or("no chromium: install Debian's chromium package")?;
+    let profile = target_dir().join("web-profile");
+    let _ = std::fs::remove_dir_all(&profile);
+    let chromium = |extra: &[String]| {
+        let mut c = Command::new(browser);
+        // As root Chromium needs --no-sandbox; the rest keeps it off the
+        // network it cannot reach.
+        c.args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--disable-quic",
+            "--no-first-run",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+            "--virtual-time-budget=30000",
+        ])
+        .arg(format!("--user-data-dir={}", profile.display()))
+        .args(extra)
+        .arg(&url);
+        c
+    };
+    let dom = run_program(&mut chromium(&["--dump-dom".into()]), "chromium --dump-dom")?;
+    let span = |id: &str| -> Option<String> {
+        let open = format!("id=\"{id}\">");
+        let at = dom.find(&open)? + open.len();
+        Some(dom[at..].split('<').next()?.to_owned())
+    };
+    if span("status").as_deref() != Some("done") {
+        return fail(format!(
+            "the page did not finish its run: status `{}`",
+            span("status").unwrap_or_default()
+        ));
+    }
+    let page: f64 = span("linf")
+        .ok_or("no linf in the page")?
+        .parse()
+        .map_err(|e| format!("the page's linf: {e}"))?;
+    let native = run_program(
+        cargo()
+            .args([
+                "run",
+                "-q",
+                "--profile",
+                "wasm",
+                "-p",
+                "sph-web",
+                "--example",
+                "reference",
+                "--",
+            ])
+            .args([across, nu, steps]),
+        "the native reference",
+    )?;
+    let native_linf = numbers_after(&native, "linf=")?
+        .first()
+        .copied()
+        .ok_or("no linf from the native reference")?;
+    println!(
+        "Couette, {across} across, nu {nu}, {steps} steps: page {page:e} (rate {} particle-steps/s), native {native_linf:e}",
+        span("rate").unwrap_or_default()
+    );
+    if page.to_bits() != native_linf.to_bits() {
+        return fail(format!(
+            "the page's error {page:e} is not the native run's {native_linf:e}"
+        ));
+    }
+    println!("the page's error is the native run's, bit for bit");
+    if let Some(path) = screenshot {
+        let path = std::path::absolute(path).map_err(|e| format!("{path}: {e}"))?;
+        run_program(
+            &mut chromium(&[
+                format!("--screenshot={}", path.display()),
+                "--window-size=820,780".into(),
+            ]),
+            "chromium --screenshot",
+        )?;
+        println!("screenshot: {}", path.display());
+    }
+    Ok(())
+}
+
 fn main() -> ExitCode {
     let task = env::args().nth(1).unwrap_or_default();
     let result = match task.as_str() {
@@ -604,8 +779,9 @@ fn main() -> ExitCode {
         "qemu" => qemu(),
         "size" => size(),
         "c-abi" => c_abi(),
+        "web" => web(),
         _ => {
-            eprintln!("usage: cargo xtask <cross|deps|qemu|size|c-abi>");
+            eprintln!("usage: cargo xtask <cross|deps|qemu|size|c-abi|web>");
             return ExitCode::from(2);
         }
     };
