@@ -14,8 +14,10 @@
 //!   simulation and the error reporting, and bytes per particle.
 //! - `c-abi`: build sph-ffi's static library, compile `examples/c/couette.c`
 //!   and `examples/c/smoke.cpp` with the system's C and C++ compilers, run
-//!   them, and check that the C program's Couette errors are `sph
-//!   couette`'s at the same settings, bit for bit.
+//!   them, and check that the C program's Couette state is `sph couette`'s
+//!   at the same settings, bit for bit; build sph-ffi-bare for
+//!   thumbv7em-none-eabihf (its functions exported, no allocator symbol) and
+//!   run `examples/c/bare.c` against its host build.
 //! - `web [--screenshot PATH]`: build the browser module (`web/`, wasm32),
 //!   serve the page on 127.0.0.1, load it in headless Chromium, and check
 //!   the Couette error the page reports after 300 steps against the same
@@ -484,6 +486,51 @@ fn numbers_after(text: &str, key: &str) -> Result<Vec<f64>, String> {
         .collect()
 }
 
+/// The bare-metal C library for a Cortex-M4F: it builds, exports the
+/// header's functions, and holds no allocator symbol.
+fn bare_metal() -> Result<(), String> {
+    let target = "thumbv7em-none-eabihf";
+    ensure_target(target)?;
+    run_build(
+        cargo().args([
+            "build",
+            "--release",
+            "-p",
+            "sph-ffi-bare",
+            "--target",
+            target,
+        ]),
+        "sph-ffi-bare (thumbv7em)",
+    )?;
+    let lib = target_dir()
+        .join(target)
+        .join("release")
+        .join("libsph_bare.a");
+    let symbols = run_program(Command::new("nm").arg(&lib), "nm libsph_bare.a")?;
+    let exported = symbols
+        .lines()
+        .filter(|l| l.contains(" T sph_bare_"))
+        .count();
+    let header = std::fs::read_to_string(root().join("sph-ffi/bare/include/sph_bare.h"))
+        .map_err(|e| format!("sph_bare.h: {e}"))?;
+    let declared = header.matches(" sph_bare_").count();
+    if exported == 0 || exported != declared {
+        return fail(format!(
+            "libsph_bare.a ({target}) exports {exported} sph_bare_ functions, the header declares {declared}"
+        ));
+    }
+    if let Some(line) = symbols.lines().find(|l| l.contains("alloc")) {
+        return fail(format!(
+            "libsph_bare.a ({target}) holds an allocator symbol: {line}"
+        ));
+    }
+    let bytes = std::fs::metadata(&lib).map(|m| m.len()).unwrap_or(0);
+    println!(
+        "libsph_bare.a for {target}: {exported} functions, no allocator symbol ({bytes} bytes with its libraries)"
+    );
+    Ok(())
+}
+
 fn c_abi() -> Result<(), String> {
     // The test profile: the same optimised build `cargo test` made.
     run_build(
@@ -494,10 +541,13 @@ fn c_abi() -> Result<(), String> {
             "-p",
             "sph-ffi",
             "-p",
+            "sph-ffi-bare",
+            "-p",
             "sph-tool",
         ]),
-        "sph-ffi and sph",
+        "sph-ffi, sph-ffi-bare and sph",
     )?;
+    bare_metal()?;
     let target = target_dir();
     let lib = target.join("debug").join("libsph_ffi.a");
     let out = target.join("c-abi");
@@ -527,6 +577,20 @@ fn c_abi() -> Result<(), String> {
         "{}",
         run_program(&mut Command::new(out.join("smoke")), "smoke")?
     );
+    let bare = out.join("bare");
+    run_program(
+        Command::new(env::var("CC").unwrap_or_else(|_| "cc".into()))
+            .args(["-std=c99", "-O2", "-Wall", "-Wextra", "-Werror"])
+            .arg(root().join("examples/c/bare.c"))
+            .arg("-I")
+            .arg(root().join("sph-ffi/bare/include"))
+            .arg(target.join("debug").join("libsph_bare.a"))
+            .args(system)
+            .arg("-o")
+            .arg(&bare),
+        "cc bare.c",
+    )?;
+    print!("{}", run_program(&mut Command::new(&bare), "bare")?);
     // Settings that no test uses: 16 across to t = 0.15 s.
     let (across, t_end) = (16, 0.15);
     let csv = out.join("couette-final.csv");

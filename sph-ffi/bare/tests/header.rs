@@ -1,0 +1,10 @@
+//! `include/sph_bare.h` is what cbindgen generates from `src/lib.rs` now: a
+//! stale header fails here.
+
+#[path = "../../tests/common/header.rs"]
+mod common;
+
+#[test]
+fn header_is_current() {
+    common::check(env!("CARGO_MANIFEST_DIR"), "sph_bare.h", "sph-ffi-bare");
+}
