@@ -26,8 +26,11 @@
 //! ```
 //!
 //! Each call to [`Simulation::advance`] rebuilds the run's storage from the
-//! paused state and copies it out again: about the cost of two steps, so
-//! advance by tens of steps or more where speed matters.
+//! paused state and copies it out again. Measured from Python on the
+//! Taylor-Green case at 1,024 and 4,096 particles, one thread, with other
+//! work on the machine: 0.1 to 2.6 ms a call against 1.8 to 10.6 ms a step
+//! (0.01 to 0.7 of a step). Advance by several steps at a time where speed
+//! matters.
 
 use crate::cases::{self, Settings};
 use crate::checkpoint::Checkpoint;
