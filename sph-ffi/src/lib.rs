@@ -535,3 +535,28 @@ pub unsafe extern "C" fn sph_simulation_write(
 pub extern "C" fn sph_version() -> *const c_char {
     concat!(env!("CARGO_PKG_VERSION"), "\0").as_ptr().cast()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A panic inside a call comes back as a status and a message, and the
+    /// simulation stays usable.
+    #[test]
+    fn a_panic_stops_at_the_boundary() {
+        let settings = settings_of("case = \"couette\"\nresolution = 8\nthreads = 1\n").unwrap();
+        let mut handle = SphSimulation {
+            sim: Simulation::from_settings(&settings).unwrap(),
+            error: CString::default(),
+        };
+        let status = with_sim(&mut handle, |_| panic!("boom"));
+        assert_eq!(status, SphStatus::Panic);
+        let message = handle.error.to_str().unwrap();
+        assert!(message.contains("boom"), "{message}");
+        assert_eq!(
+            with_sim(&mut handle, |s| s.advance(3).map(|_| ()).map_err(fail)),
+            SphStatus::Ok
+        );
+        assert_eq!(handle.sim.steps(), 3);
+    }
+}
