@@ -532,20 +532,21 @@ fn bare_metal() -> Result<(), String> {
 }
 
 fn c_abi() -> Result<(), String> {
-    // The test profile: the same optimised build `cargo test` made.
+    // The test profile over the whole workspace with its tests selected:
+    // the same feature resolution as `cargo test --workspace`, so every
+    // artifact of the test command is reused (selecting single packages
+    // resolves features differently and compiles sph-std again).
     run_build(
         cargo().args([
             "build",
             "--profile",
             "test",
-            "-p",
-            "sph-ffi",
-            "-p",
-            "sph-ffi-bare",
-            "-p",
-            "sph-tool",
+            "--workspace",
+            "--lib",
+            "--bins",
+            "--tests",
         ]),
-        "sph-ffi, sph-ffi-bare and sph",
+        "the workspace's libraries and binaries",
     )?;
     bare_metal()?;
     let target = target_dir();
