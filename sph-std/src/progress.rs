@@ -1,14 +1,19 @@
 //! A progress bar on stderr (indicatif), hidden when stderr is not a terminal
-//! or when asked to be quiet.
+//! or when asked to be quiet, and the stop flag that SIGINT and SIGTERM set.
+//! The bar needs the `progress-bar` feature (on by default; off for the
+//! browser module, where indicatif's clock goes through JavaScript glue).
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, OnceLock};
 
+#[cfg(feature = "progress-bar")]
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
+#[cfg(feature = "progress-bar")]
 use crate::couette::Progress;
 
-/// The flag every [`Bar`] reports through [`Progress::cancelled`]; the
+/// The flag every progress bar reports through
+/// [`crate::couette::Progress::cancelled`]; the
 /// command line's SIGINT and SIGTERM handlers set it.
 pub fn stop_flag() -> Arc<AtomicBool> {
     static STOP: OnceLock<Arc<AtomicBool>> = OnceLock::new();
@@ -22,11 +27,13 @@ pub fn request_stop() {
 }
 
 /// An indicatif bar implementing [`Progress`].
+#[cfg(feature = "progress-bar")]
 #[derive(Debug)]
 pub struct Bar {
     bar: ProgressBar,
 }
 
+#[cfg(feature = "progress-bar")]
 impl Bar {
     /// A bar labelled `label`; drawn nowhere when `quiet`.
     pub fn new(label: &str, quiet: bool) -> Self {
@@ -48,6 +55,7 @@ impl Bar {
     }
 }
 
+#[cfg(feature = "progress-bar")]
 impl Progress for Bar {
     fn start(&self, total: u64) {
         self.bar.set_length(total);

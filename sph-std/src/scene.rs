@@ -14,19 +14,22 @@
 //! dispatch here never changes.
 
 use std::sync::Arc;
-use std::time::Instant;
 
 use serde::Serialize;
 use sph_core::exec::{Executor, Serial};
-use sph_core::kernel::{
-    CubicSpline, Gaussian, Kernel, QuinticSpline, SmoothingKernel, WendlandC2, WendlandC4,
-};
-use sph_core::math::{Libm, Math, Micromath};
+use sph_core::kernel::{CubicSpline, Kernel, QuinticSpline, SmoothingKernel};
+#[cfg(feature = "full")]
+use sph_core::kernel::{Gaussian, WendlandC2, WendlandC4};
+#[cfg(feature = "full")]
+use sph_core::math::Micromath;
+use sph_core::math::{Libm, Math};
+#[cfg(feature = "full")]
+use sph_core::prelude::D3;
 use sph_core::prelude::{
     AnyContinuity, AnyPressure, AnyViscosity, ArtificialViscosity, BodyForce,
     CorrectedMorrisViscosity, DensityDiffusion, Domain, Eos, MorrisViscosity, Params, PiViscosity,
     PressureGradient, Reflection, ShapedWall, Shifting, Side, Solver, SummationDensity, Term, Wall,
-    D2, D3,
+    D2,
 };
 use sph_core::real::Real;
 use sph_core::space::{Space, VectorOps};
@@ -35,7 +38,9 @@ use crate::checkpoint::Checkpoint;
 use crate::config::{DensityMode, KernelName, MathBackend, Precision, ViscosityForm};
 pub use crate::config::{EosForm, PressureForm, WallBoundary, WallPressure};
 use crate::couette::{Progress, SKIN};
-use crate::driver::{Buffers, Rayon};
+use crate::driver::Buffers;
+#[cfg(feature = "full")]
+use crate::driver::Rayon;
 use crate::error::{Error, Result};
 
 /// A velocity field `v(x, t)` in global coordinates (unused components zero).
@@ -566,11 +571,11 @@ pub fn run_with(scene: &Scene, ctl: &mut RunControl<'_>) -> Result<RunRecord> {
         }
     }
     let threads = crate::driver::resolve_threads(scene.threads);
-    let start = Instant::now();
+    let start = Stopwatch::start();
     let mut hook = |record: &RunRecord, ck: &Checkpoint| {
         let mut record = record.clone();
         record.threads = threads;
-        record.wall_seconds = start.elapsed().as_secs_f64();
+        record.wall_seconds = start.seconds();
         (ctl.on_checkpoint)(&record, ck)
     };
     let mut inner = RunControl {
@@ -581,6 +586,7 @@ pub fn run_with(scene: &Scene, ctl: &mut RunControl<'_>) -> Result<RunRecord> {
         pause_after: ctl.pause_after,
         refresh: ctl.refresh,
     };
+    #[cfg(feature = "full")]
     let mut record = if threads == 1 {
         by_dim(scene, &Serial, &mut inner)?
     } else {
@@ -588,10 +594,38 @@ pub fn run_with(scene: &Scene, ctl: &mut RunControl<'_>) -> Result<RunRecord> {
         let min_chunk = min_chunk(scene, threads);
         pool.install(|| by_dim(scene, &Rayon { min_chunk }, &mut inner))?
     };
+    // Without `full` every run is serial (the same bits as any thread
+    // count), and says so in its record.
+    #[cfg(not(feature = "full"))]
+    let (threads, mut record) = (1, by_dim(scene, &Serial, &mut inner)?);
     ctl.progress.finish();
     record.threads = threads;
-    record.wall_seconds = start.elapsed().as_secs_f64();
+    record.wall_seconds = start.seconds();
     Ok(record)
+}
+
+/// Wall-clock seconds since a start. wasm32-unknown-unknown has no clock
+/// (`Instant::now` panics there), so a run in a browser reports 0 s; its
+/// page times the calls itself.
+struct Stopwatch {
+    #[cfg(not(all(target_arch = "wasm32", target_os = "unknown")))]
+    start: std::time::Instant,
+}
+
+impl Stopwatch {
+    fn start() -> Self {
+        Self {
+            #[cfg(not(all(target_arch = "wasm32", target_os = "unknown")))]
+            start: std::time::Instant::now(),
+        }
+    }
+
+    fn seconds(&self) -> f64 {
+        #[cfg(not(all(target_arch = "wasm32", target_os = "unknown")))]
+        return self.start.elapsed().as_secs_f64();
+        #[cfg(all(target_arch = "wasm32", target_os = "unknown"))]
+        0.0
+    }
 }
 
 fn check_scene(scene: &Scene) -> Result<()> {
@@ -736,7 +770,7 @@ pub fn ramp_factor(t: f64, ramp: f64) -> f64 {
     if t >= ramp {
         1.0
     } else {
-        0.5 * (1.0 - (std::f64::consts::PI * t / ramp).cos())
+        0.5 * (1.0 - libm::cos(std::f64::consts::PI * t / ramp))
     }
 }
 
@@ -744,6 +778,7 @@ pub fn ramp_factor(t: f64, ramp: f64) -> f64 {
 /// four pieces per thread of the fluid's own particles, not the box's (a
 /// dam break fills an eighth of its tank: pieces sized from the box left
 /// the whole fluid in one piece, on one thread).
+#[cfg(feature = "full")]
 fn min_chunk(scene: &Scene, threads: usize) -> usize {
     (estimate_fluid(scene) / (4 * threads.max(1))).max(64)
 }
@@ -752,6 +787,7 @@ fn min_chunk(scene: &Scene, threads: usize) -> usize {
 /// scene too large for memory is refused after this, before anything is
 /// allocated): the given initial points, or the regions' volume inside the
 /// box over `dx^dim`, at most the box's count.
+#[cfg(feature = "full")]
 fn estimate_fluid(scene: &Scene) -> usize {
     if let Some(points) = &scene.initial {
         return points.len();
@@ -782,19 +818,30 @@ fn by_dim<E: Executor>(scene: &Scene, exec: &E, ctl: &mut RunControl<'_>) -> Res
     let p = scene.physics;
     match (scene.dim, p.precision, p.math) {
         (2, Precision::F64, MathBackend::Libm) => by_kernel::<D2<f64>, Libm, E>(scene, exec, ctl),
+        #[cfg(feature = "full")]
         (2, Precision::F32, MathBackend::Libm) => by_kernel::<D2<f32>, Libm, E>(scene, exec, ctl),
+        #[cfg(feature = "full")]
         (2, Precision::F32, MathBackend::Micromath) => {
             by_kernel::<D2<f32>, Micromath, E>(scene, exec, ctl)
         }
+        #[cfg(feature = "full")]
         (3, Precision::F64, MathBackend::Libm) => by_kernel::<D3<f64>, Libm, E>(scene, exec, ctl),
+        #[cfg(feature = "full")]
         (3, Precision::F32, MathBackend::Libm) => by_kernel::<D3<f32>, Libm, E>(scene, exec, ctl),
         _ => Err(Error::config(
             "math",
-            p.math,
-            "this combination of dimension, precision and math backend is not built",
+            format!("{} in {}D with {}", p.math, scene.dim, p.precision),
+            NOT_BUILT,
         )),
     }
 }
+
+/// Why a scene's configuration has no code in this build.
+#[cfg(feature = "full")]
+const NOT_BUILT: &str = "this combination of dimension, precision and math backend is not built";
+/// Why a scene's configuration has no code in this build.
+#[cfg(not(feature = "full"))]
+const NOT_BUILT: &str = "not in this build: without sph-std's `full` feature only 2D, f64 and libm with the cubic and quintic kernels are compiled";
 
 fn by_kernel<S, M, E>(scene: &Scene, exec: &E, ctl: &mut RunControl<'_>) -> Result<RunRecord>
 where
@@ -805,9 +852,14 @@ where
     match scene.physics.kernel {
         KernelName::Cubic => by_terms::<S, CubicSpline, M, E>(scene, exec, ctl),
         KernelName::Quintic => by_terms::<S, QuinticSpline, M, E>(scene, exec, ctl),
+        #[cfg(feature = "full")]
         KernelName::WendlandC2 => by_terms::<S, WendlandC2, M, E>(scene, exec, ctl),
+        #[cfg(feature = "full")]
         KernelName::WendlandC4 => by_terms::<S, WendlandC4, M, E>(scene, exec, ctl),
+        #[cfg(feature = "full")]
         KernelName::Gaussian => by_terms::<S, Gaussian, M, E>(scene, exec, ctl),
+        #[cfg(not(feature = "full"))]
+        other => Err(Error::config("kernel", other, NOT_BUILT)),
     }
 }
 
@@ -1586,7 +1638,7 @@ impl<E: Executor> Context<'_, '_, E> {
         let mut ke_exact = 0.0;
         let mut linf = 0.0f64;
         let mut sq = 0.0;
-        let scale = s.velocity_scale * (s.error_decay * t).exp();
+        let scale = s.velocity_scale * libm::exp(s.error_decay * t);
         for (k, (x, v)) in solver
             .positions()
             .iter()

@@ -123,7 +123,27 @@ impl Simulation {
         Self::new(crate::couette::scene(&config))
     }
 
-    fn paused(scene: Scene, mut record: RunRecord, steady: bool) -> Result<Self> {
+    fn paused(scene: Scene, record: RunRecord, steady: bool) -> Result<Self> {
+        let (checkpoint, state, record, ended, steady) = Self::pause_parts(&scene, record, steady)?;
+        Ok(Self {
+            scene,
+            checkpoint,
+            state,
+            record,
+            changed: false,
+            ended,
+            steady,
+        })
+    }
+
+    /// A record's pause: its checkpoint and state moved out, whether the
+    /// run ended, whether it is steady.
+    #[allow(clippy::type_complexity)]
+    fn pause_parts(
+        scene: &Scene,
+        mut record: RunRecord,
+        steady: bool,
+    ) -> Result<(Box<Checkpoint>, Frame, RunRecord, bool, bool)> {
         if let Some(stop) = &record.stop {
             return Err(Error::Diverged(stop.reason.clone()));
         }
@@ -135,15 +155,7 @@ impl Simulation {
         };
         let ended = checkpoint.interval >= scene.output_times.len();
         let steady = steady || record.steady;
-        Ok(Self {
-            scene,
-            checkpoint,
-            state,
-            record,
-            changed: false,
-            ended,
-            steady,
-        })
+        Ok((checkpoint, state, record, ended, steady))
     }
 
     /// Takes up to `steps` time steps (fewer where the run reaches its end
@@ -159,9 +171,14 @@ impl Simulation {
             return Ok(0);
         }
         let record = pause(&self.scene, Some(&self.checkpoint), self.changed, steps)?;
-        let steady = self.steady || record.steady;
-        let scene = self.scene.clone();
-        *self = Self::paused(scene, record, steady)?;
+        let (checkpoint, state, record, ended, steady) =
+            Self::pause_parts(&self.scene, record, self.steady)?;
+        self.checkpoint = checkpoint;
+        self.state = state;
+        self.record = record;
+        self.changed = false;
+        self.ended = ended;
+        self.steady = steady;
         Ok(self.steps() - before)
     }
 

@@ -192,7 +192,7 @@ pub fn pressure_probes(record: &RunRecord) -> Option<Vec<(f64, f64, f64)>> {
                 .x
                 .iter()
                 .zip(&frame.p)
-                .filter(|(x, _)| (x[0] - 0.5 * D).hypot(x[1] - y) <= radius)
+                .filter(|(x, _)| libm::hypot(x[0] - 0.5 * D, x[1] - y) <= radius)
                 .map(|(_, p)| p - offset)
                 .collect();
             (!near.is_empty()).then(|| {

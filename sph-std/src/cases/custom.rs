@@ -434,8 +434,8 @@ fn profile(
             )?;
             let k = 2.0 * PI / l;
             let velocity: VectorField = Arc::new(move |x, _| {
-                let (sx, cx) = (k * (x[0] - origin[0])).sin_cos();
-                let (sy, cy) = (k * (x[1] - origin[1])).sin_cos();
+                let (sx, cx) = libm::sincos(k * (x[0] - origin[0]));
+                let (sy, cy) = libm::sincos(k * (x[1] - origin[1]));
                 [-u * cx * sy, u * sx * cy, 0.0]
             });
             let pressure: ScalarField = Arc::new(move |x| {
@@ -443,7 +443,8 @@ fn profile(
                     * rho0
                     * u
                     * u
-                    * ((2.0 * k * (x[0] - origin[0])).cos() + (2.0 * k * (x[1] - origin[1])).cos())
+                    * (libm::cos(2.0 * k * (x[0] - origin[0]))
+                        + libm::cos(2.0 * k * (x[1] - origin[1])))
             });
             (Some(velocity), Some(pressure))
         }

@@ -170,13 +170,13 @@ fn build(s: &Settings) -> Result<Scene> {
 pub fn exact_pressure(eos: EosForm, rho0: f64, c0: f64, g: f64, p_floor: f64, y: f64) -> f64 {
     let c2 = c0 * c0;
     match eos {
-        EosForm::Linear => (p_floor + rho0 * c2) * (-g * y / c2).exp() - rho0 * c2,
+        EosForm::Linear => (p_floor + rho0 * c2) * libm::exp(-g * y / c2) - rho0 * c2,
         EosForm::Tait => {
             let gamma = 7.0;
             let b = rho0 * c2 / gamma;
             let e = 1.0 - 1.0 / gamma;
-            let top = (1.0 + p_floor / b).powf(e) - e * g * rho0 * y / b;
-            b * (top.max(0.0).powf(1.0 / e) - 1.0)
+            let top = libm::pow(1.0 + p_floor / b, e) - e * g * rho0 * y / b;
+            b * (libm::pow(top.max(0.0), 1.0 / e) - 1.0)
         }
     }
 }

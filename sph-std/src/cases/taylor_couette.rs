@@ -141,7 +141,7 @@ pub fn rings(n: usize, dx: f64) -> Vec<[f64; 3]> {
         let phase = if k % 2 == 0 { 0.0 } else { 0.5 };
         for j in 0..count {
             let a = 2.0 * std::f64::consts::PI * (j as f64 + phase) / count as f64;
-            points.push([r * a.cos(), r * a.sin(), 0.0]);
+            points.push([r * libm::cos(a), r * libm::sin(a), 0.0]);
         }
     }
     points

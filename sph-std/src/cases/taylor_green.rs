@@ -41,9 +41,9 @@ fn defaults() -> Settings {
 
 /// The exact velocity at `x` and time `t` for viscosity `nu` (`U = L = 1`).
 pub fn velocity(x: [f64; 3], t: f64, nu: f64) -> [f64; 3] {
-    let a = (-8.0 * PI * PI * nu * t).exp();
-    let (sx, cx) = (2.0 * PI * x[0]).sin_cos();
-    let (sy, cy) = (2.0 * PI * x[1]).sin_cos();
+    let a = libm::exp(-8.0 * PI * PI * nu * t);
+    let (sx, cx) = libm::sincos(2.0 * PI * x[0]);
+    let (sy, cy) = libm::sincos(2.0 * PI * x[1]);
     [-a * cx * sy, a * sx * cy, 0.0]
 }
 
@@ -68,7 +68,7 @@ fn build(s: &Settings) -> Result<Scene> {
         }],
         velocity: Some(Arc::new(move |x, _| velocity(x, 0.0, nu))),
         pressure: Some(Arc::new(move |x| {
-            -0.25 * rho0 * ((4.0 * PI * x[0]).cos() + (4.0 * PI * x[1]).cos())
+            -0.25 * rho0 * (libm::cos(4.0 * PI * x[0]) + libm::cos(4.0 * PI * x[1]))
         })),
         body_force: [0.0; 3],
         rho0,

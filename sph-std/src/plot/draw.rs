@@ -1,5 +1,5 @@
-//! Plots (PNG) with plotters, using a font shipped in the crate (no system
-//! font libraries needed).
+//! The figures, drawn with plotters in a font shipped in the crate (no
+//! system font libraries needed).
 
 use std::sync::Once;
 
@@ -7,6 +7,7 @@ use plotters::coord::CoordTranslate;
 use plotters::prelude::*;
 use plotters::style::{register_font, FontStyle};
 
+use super::{Axes, Series, REFERENCE};
 use crate::couette::CouetteRun;
 use crate::error::{Error, Result};
 
@@ -19,7 +20,7 @@ pub fn ensure_font() {
         let _ = register_font(
             "sans-serif",
             FontStyle::Normal,
-            include_bytes!("../assets/DejaVuSans.ttf"),
+            include_bytes!("../../assets/DejaVuSans.ttf"),
         );
     });
 }
@@ -59,10 +60,6 @@ pub const PALETTE: [RGBColor; 8] = [
     RGBColor(227, 119, 194),
     RGBColor(23, 190, 207),
 ];
-
-/// Style index of reference lines (exact solutions, slopes): black, drawn
-/// apart from the series' styles.
-pub const REFERENCE: usize = usize::MAX;
 
 /// Marker shapes: after the eight colours the shapes change, so no two of
 /// the first 32 series of a figure look alike.
@@ -356,36 +353,6 @@ pub fn profiles_png(run: &CouetteRun) -> Result<Vec<u8>> {
         root.present().map_err(plot_error)?;
     }
     encode_png(&buffer, w, h)
-}
-
-/// One series of a [`line_plot`].
-#[derive(Clone, Debug)]
-pub struct Series {
-    /// Legend label.
-    pub label: String,
-    /// Points (x, y); non-positive values are dropped on log axes.
-    pub points: Vec<(f64, f64)>,
-    /// Style index ([`style`]: colour, then marker shape), or [`REFERENCE`].
-    pub color: usize,
-    /// Draw as a line (else markers only).
-    pub line: bool,
-    /// Draw markers at the points.
-    pub markers: bool,
-}
-
-/// Axes of a [`line_plot`].
-#[derive(Clone, Debug)]
-pub struct Axes {
-    /// Title.
-    pub title: String,
-    /// x label.
-    pub x: String,
-    /// y label.
-    pub y: String,
-    /// Logarithmic x.
-    pub log_x: bool,
-    /// Logarithmic y.
-    pub log_y: bool,
 }
 
 fn range(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
