@@ -1,288 +1,270 @@
-//! sph-core in a browser: plane Couette flow as a wasm32 module with plain
-//! exported functions (no wasm-bindgen), driven by `web/index.html`.
+//! sph in a browser: a built-in case, given as a scene file's text, run by
+//! sph-std's [`Simulation`] in a wasm32 module with plain exported functions
+//! (no wasm-bindgen), driven by `web/index.html`.
 //!
-//! The same code runs natively (`cargo run -p sph-web --example reference`),
-//! which is what the page's figures are checked against: the module's f64
-//! arithmetic is IEEE and its math is libm's pure Rust, so the error after
-//! N steps is the native one bit for bit.
+//! The module is the scene layer that `sph run` uses, single-threaded
+//! (`threads = 1`: the executor is the core's serial one, no rayon pool is
+//! started), with no file or clock access on the run's path. So the page's
+//! figures can be checked against `sph run` on the same scene file:
+//! `cargo xtask web` runs the page headless, reads the scene text and the
+//! error it reports from the DOM, runs `sph run` on that text natively, and
+//! compares the two.
 //!
-//! The flow is `sph couette`'s defaults (gap 1 mm, U = 1.25e-5 m/s,
-//! rho0 = 1000, c0 = 10 U), with the viscosity and the particles across
-//! chosen by the caller: cubic spline at beta 1.3, summation density, Morris
-//! viscosity, mirrored no-slip plates, f64. Particles live in `Vec`s (std's
-//! allocator exists on wasm32); between calls the run is kept as its
-//! storage plus [`Resume`], and each call resumes it (bit for bit).
+//! The page hands the scene text in through [`exports::sph_input`] (a
+//! buffer in the module's memory), starts it with [`exports::sph_start`],
+//! and advances it frame by frame; errors come back as the same one-line
+//! messages as the CLI's, through [`exports::sph_text`].
 
 use std::cell::RefCell;
 
-use sph_core::analytic::Couette;
-use sph_core::prelude::*;
-use sph_core::solver::Resume;
+pub use sph_std::cases::Settings;
+pub use sph_std::simulation::{Field, Simulation};
 
-#[path = "../../sph-core/tests/common/mod.rs"]
-#[allow(missing_docs)]
-mod common;
-
-use common::Buffers;
-
-/// Plate separation in m.
-pub const GAP: f64 = 1e-3;
-/// Speed of the upper plate in m/s.
-pub const U: f64 = 1.25e-5;
-const RHO0: f64 = 1000.0;
-const BETA: f64 = 1.3;
-/// Particles along the periodic strip: just over two supports (2 x 2.6 dx).
-const ALONG: usize = 6;
-
-/// A run between calls.
-pub struct Run {
-    buffers: Buffers<D2<f64>>,
-    domain: Domain<D2<f64>>,
-    params: Params<f64>,
-    forces: (PressureGradient, MorrisViscosity<f64>),
-    n: usize,
-    state: Resume,
-    dt: f64,
-    nu: f64,
-    exact: Couette,
+/// Starts the run of a scene file's text (a built-in case and its keys).
+///
+/// # Errors
+/// The message of the scene's error, as `sph run` prints it.
+pub fn start(toml: &str) -> Result<Simulation, String> {
+    let settings = Settings::from_toml(toml).map_err(|e| e.to_string())?;
+    Simulation::from_settings(&settings).map_err(|e| e.to_string())
 }
 
-type Couetter<'a> = Solver<
-    'a,
-    D2<f64>,
-    CubicSpline,
-    Libm,
-    SummationDensity,
-    (PressureGradient, MorrisViscosity<f64>),
->;
+/// A built-in case's default settings as scene-file text (every key, as
+/// `sph run` writes them into config.toml).
+///
+/// # Errors
+/// The message for an unknown case.
+pub fn defaults(case: &str) -> Result<String, String> {
+    let mut table = toml::Table::new();
+    table.insert("case".into(), toml::Value::String(case.into()));
+    Settings::from_toml(&table.to_string())
+        .and_then(|s| s.to_toml())
+        .map_err(|e| e.to_string())
+}
 
-impl Run {
-    /// `across` particles across the gap (4 to 200), kinematic viscosity
-    /// `nu` in m^2/s (positive).
-    ///
-    /// # Errors
-    /// [`Error::InvalidParameter`] for values outside those ranges; any
-    /// error of the core's set-up.
-    pub fn new(across: usize, nu: f64) -> Result<Self> {
-        if !(4..=200).contains(&across) {
-            return Err(Error::InvalidParameter {
-                name: "across",
-                value: across as f64,
-                rule: "particles across the gap: 4 to 200",
-            });
-        }
-        if !(nu > 0.0 && nu.is_finite()) {
-            return Err(Error::InvalidParameter {
-                name: "nu",
-                value: nu,
-                rule: "the viscosity must be positive and finite",
-            });
-        }
-        let dx = GAP / across as f64;
-        let x: Vec<_> = (0..across)
-            .flat_map(|j| {
-                (0..ALONG).map(move |i| Vector::new([(i as f64 + 0.5) * dx, (j as f64 + 0.5) * dx]))
-            })
-            .collect();
-        let v = vec![Vector::zero(); x.len()];
-        let domain = Domain::new(
-            Vector::new([0.0, -0.5 * GAP]),
-            Vector::new([ALONG as f64 * dx, GAP]),
-        )?
-        .with_periodic(0)?
-        .with_wall(1, Side::Lower, Wall::no_slip())?
-        .with_wall(1, Side::Upper, Wall::moving(Vector::new([U, 0.0])))?;
-        let h = BETA * dx;
-        let cells = Couetter::cells_needed(&domain, h)?;
-        // Ghosts: four rows at each plate (the support is 2.6 dx).
-        let mut buffers = Buffers::new(&x, &v, 1.0, RHO0, 2 * 4 * ALONG, cells);
-        let params = Params::new(
-            h,
-            Eos::Linear {
-                rho0: RHO0,
-                c0: 10.0 * U,
-                p0: 0.0,
-            },
-        );
-        let forces = (PressureGradient, MorrisViscosity { mu: nu * RHO0 });
-        let n = x.len();
-        let (state, dt) = {
-            let mut solver = Couetter::new(
-                params,
-                domain,
-                buffers.storage(),
-                n,
-                SummationDensity,
-                forces,
-            )?;
-            solver.calibrate_mass(RHO0)?;
-            (solver.resume_state(), 0.7 * solver.limits().min())
-        };
-        let exact = Couette::new(-0.5 * GAP, 0.5 * GAP, U, nu)?;
-        Ok(Self {
-            buffers,
-            domain,
-            params,
-            forces,
-            n,
-            state,
-            dt,
-            nu,
-            exact,
-        })
-    }
+/// The latest output time reached and its velocity error against the exact
+/// solution (`max |v - v_exact|` over the error scale), if the case has
+/// one and an output time was reached.
+pub fn latest_error(sim: &Simulation) -> Option<(f64, f64)> {
+    let d = sim.diagnostics().last()?;
+    Some((d.t, d.linf?))
+}
 
-    /// Takes `steps` steps of the fixed step [`Self::dt`].
-    ///
-    /// # Errors
-    /// A core error (a diverged step).
-    pub fn step(&mut self, steps: u32) -> Result<()> {
-        let mut solver = Couetter::resume_with(
-            self.params,
-            self.domain,
-            self.buffers.storage(),
-            self.n,
-            SummationDensity,
-            self.forces,
-            self.state,
-        )?;
-        for _ in 0..steps {
-            solver.step(self.dt)?;
-        }
-        self.state = solver.resume_state();
-        Ok(())
+/// Writes `x, y, u, v` per particle (global coordinates; the first two
+/// components in 3D) into `out`, cleared first.
+///
+/// # Errors
+/// As [`Simulation::read`] (it does not fail for buffers sized here).
+pub fn view_into(sim: &Simulation, out: &mut Vec<f64>) -> Result<(), String> {
+    let n = sim.particles();
+    let d = sim.dim();
+    let mut x = vec![0.0; sim.len(Field::Position)];
+    let mut v = vec![0.0; sim.len(Field::Velocity)];
+    sim.read(Field::Position, &mut x)
+        .and_then(|()| sim.read(Field::Velocity, &mut v))
+        .map_err(|e| e.to_string())?;
+    out.clear();
+    out.reserve(4 * n);
+    for i in 0..n {
+        out.extend_from_slice(&[x[d * i], x[d * i + 1], v[d * i], v[d * i + 1]]);
     }
-
-    /// Simulated time in s.
-    pub fn time(&self) -> f64 {
-        self.state.time
-    }
-
-    /// Steps taken.
-    pub fn steps(&self) -> u64 {
-        self.state.steps
-    }
-
-    /// The time step in s.
-    pub fn dt(&self) -> f64 {
-        self.dt
-    }
-
-    /// Fluid particles.
-    pub fn particles(&self) -> usize {
-        self.n
-    }
-
-    /// The viscosity in m^2/s.
-    pub fn nu(&self) -> f64 {
-        self.nu
-    }
-
-    /// Writes the fluid's positions (global, m) and velocities (m/s) as
-    /// `x, y, u, v` per particle into `out` (cleared first).
-    pub fn particles_into(&self, out: &mut Vec<f64>) {
-        out.clear();
-        for i in 0..self.n {
-            let x = self
-                .domain
-                .to_global(self.domain.wrap::<Libm>(self.buffers.x[i]));
-            let v = self.buffers.v[i];
-            out.extend_from_slice(&[x[0], x[1], v[0], v[1]]);
-        }
-    }
-
-    /// `max |v - v_exact| / U` over the fluid at the current time.
-    pub fn linf(&self) -> f64 {
-        let t = self.time();
-        (0..self.n)
-            .map(|i| {
-                let y = self.domain.to_global(self.buffers.x[i])[1];
-                let v = self.buffers.v[i];
-                let du = v[0] - self.exact.velocity(y, t);
-                (du * du + v[1] * v[1]).sqrt() / U
-            })
-            .fold(0.0, f64::max)
-    }
+    Ok(())
 }
 
 /// The functions the page calls by name. `no_mangle` is all the `unsafe`
 /// lint sees here: there is no unsafe block in this crate.
 #[allow(unsafe_code)]
-mod exports {
+pub mod exports {
     use super::*;
 
     thread_local! {
         /// The page's run (a wasm module has one thread).
-        static RUN: RefCell<Option<Run>> = const { RefCell::new(None) };
+        static RUN: RefCell<Option<Simulation>> = const { RefCell::new(None) };
+        /// The scene text the page writes before [`sph_start`].
+        static INPUT: RefCell<Vec<u8>> = const { RefCell::new(Vec::new()) };
+        /// The text the last call left for the page (UTF-8): an error's
+        /// message, or a case's defaults.
+        static TEXT: RefCell<String> = const { RefCell::new(String::new()) };
         /// `x, y, u, v` per particle, for the page to read through a pointer.
         static VIEW: RefCell<Vec<f64>> = const { RefCell::new(Vec::new()) };
     }
 
-    /// Starts a run with `across` particles across the gap and viscosity `nu`
-    /// (m^2/s); 0 on success, 1 for a refused value.
-    #[no_mangle]
-    pub extern "C" fn sph_start(across: u32, nu: f64) -> i32 {
-        match Run::new(across as usize, nu) {
-            Ok(run) => {
-                RUN.with(|r| *r.borrow_mut() = Some(run));
-                0
-            }
-            Err(_) => 1,
-        }
+    fn failed(message: String) -> i32 {
+        TEXT.with(|m| *m.borrow_mut() = message);
+        1
     }
 
-    /// Takes `steps` steps; 0 on success, 1 without a run, 2 if it diverged.
+    fn input() -> Result<String, String> {
+        INPUT
+            .with(|b| String::from_utf8(b.borrow().clone()))
+            .map_err(|_| "the text is not UTF-8".to_owned())
+    }
+
+    /// A buffer of `len` bytes for the page's text (a scene file, or a
+    /// case's name); the page writes the text there, then calls
+    /// [`sph_start`] or [`sph_defaults`].
     #[no_mangle]
-    pub extern "C" fn sph_step(steps: u32) -> i32 {
-        RUN.with(|r| match r.borrow_mut().as_mut() {
-            None => 1,
-            Some(run) => i32::from(run.step(steps).is_err()) * 2,
+    pub extern "C" fn sph_input(len: u32) -> *mut u8 {
+        INPUT.with(|b| {
+            let mut b = b.borrow_mut();
+            b.clear();
+            b.resize(len as usize, 0);
+            b.as_mut_ptr()
         })
     }
 
-    fn with_run(f: impl FnOnce(&Run) -> f64) -> f64 {
+    /// The defaults of the case named in [`sph_input`]'s buffer, as
+    /// scene-file text in [`sph_text`]; 0 on success, 1 with the reason
+    /// there.
+    #[no_mangle]
+    pub extern "C" fn sph_defaults() -> i32 {
+        match input().and_then(|case| defaults(&case)) {
+            Ok(text) => {
+                TEXT.with(|t| *t.borrow_mut() = text);
+                0
+            }
+            Err(e) => failed(e),
+        }
+    }
+
+    /// Starts the scene written into [`sph_input`]'s buffer; 0 on success,
+    /// 1 with the reason in [`sph_text`] (the previous run is dropped
+    /// either way).
+    #[no_mangle]
+    pub extern "C" fn sph_start() -> i32 {
+        RUN.with(|r| *r.borrow_mut() = None);
+        match input().and_then(|text| start(&text)) {
+            Ok(sim) => {
+                RUN.with(|r| *r.borrow_mut() = Some(sim));
+                0
+            }
+            Err(e) => failed(e),
+        }
+    }
+
+    /// Takes up to `steps` steps (fewer at the end time); 0 on success, 1
+    /// with the reason in [`sph_text`] (no run, or it diverged).
+    #[no_mangle]
+    pub extern "C" fn sph_advance(steps: u32) -> i32 {
+        let outcome = RUN.with(|r| match r.borrow_mut().as_mut() {
+            None => Err("no run: call sph_start first".to_owned()),
+            Some(sim) => sim
+                .advance(u64::from(steps))
+                .map(|_| ())
+                .map_err(|e| e.to_string()),
+        });
+        match outcome {
+            Ok(()) => 0,
+            Err(e) => failed(e),
+        }
+    }
+
+    /// Where the text of the last call that left one (an error's message,
+    /// a case's defaults) starts in the module's memory ([`sph_text_len`]
+    /// bytes of UTF-8).
+    #[no_mangle]
+    pub extern "C" fn sph_text() -> *const u8 {
+        TEXT.with(|m| m.borrow().as_ptr())
+    }
+
+    /// That text's length in bytes.
+    #[no_mangle]
+    pub extern "C" fn sph_text_len() -> u32 {
+        TEXT.with(|m| m.borrow().len() as u32)
+    }
+
+    fn with_run(f: impl FnOnce(&Simulation) -> f64) -> f64 {
         RUN.with(|r| r.borrow().as_ref().map_or(f64::NAN, f))
     }
 
     /// Simulated time in s (NaN without a run).
     #[no_mangle]
     pub extern "C" fn sph_time() -> f64 {
-        with_run(Run::time)
+        with_run(Simulation::time)
     }
 
-    /// Steps taken (NaN without a run).
+    /// The run's end time in s.
+    #[no_mangle]
+    pub extern "C" fn sph_end_time() -> f64 {
+        with_run(Simulation::end_time)
+    }
+
+    /// 1 once the run reached its end time (or a steady state), else 0.
+    #[no_mangle]
+    pub extern "C" fn sph_ended() -> f64 {
+        with_run(|s| f64::from(u8::from(s.ended())))
+    }
+
+    /// Steps taken.
     #[no_mangle]
     pub extern "C" fn sph_steps() -> f64 {
-        with_run(|r| r.steps() as f64)
+        with_run(|s| s.steps() as f64)
     }
 
     /// The time step in s.
     #[no_mangle]
     pub extern "C" fn sph_dt() -> f64 {
-        with_run(Run::dt)
+        with_run(Simulation::dt)
     }
 
-    /// `max |v - v_exact| / U` now.
+    /// Fluid particles.
     #[no_mangle]
-    pub extern "C" fn sph_linf() -> f64 {
-        with_run(Run::linf)
+    pub extern "C" fn sph_particles() -> f64 {
+        with_run(|s| s.particles() as f64)
     }
 
-    /// The diffusion time `gap^2 / nu` in s.
+    /// The initial particle spacing in m.
     #[no_mangle]
-    pub extern "C" fn sph_diffusion_time() -> f64 {
-        with_run(|r| GAP * GAP / r.nu())
+    pub extern "C" fn sph_dx() -> f64 {
+        with_run(|s| s.scene().dx)
     }
 
-    /// Fills the view with `x, y, u, v` per particle and returns the particle
-    /// count; [`sph_view`] points at it until the next call.
+    /// The velocity the case's errors are relative to, in m/s.
+    #[no_mangle]
+    pub extern "C" fn sph_velocity_scale() -> f64 {
+        with_run(|s| s.scene().velocity_scale)
+    }
+
+    /// The box: `k` = 0, 1 its origin's x and y, 2, 3 its extent's (m).
+    #[no_mangle]
+    pub extern "C" fn sph_box(k: u32) -> f64 {
+        with_run(|s| {
+            let scene = s.scene();
+            match k {
+                0 | 1 => scene.origin[k as usize],
+                2 | 3 => scene.extent[k as usize - 2],
+                _ => f64::NAN,
+            }
+        })
+    }
+
+    /// The latest output time with an error against the exact solution
+    /// (NaN before the first, or for a case without one).
+    #[no_mangle]
+    pub extern "C" fn sph_error_time() -> f64 {
+        with_run(|s| latest_error(s).map_or(f64::NAN, |(t, _)| t))
+    }
+
+    /// The error at [`sph_error_time`]: `max |v - v_exact|` over the case's
+    /// error scale, as summary.json's `linf` (NaN where there is none).
+    #[no_mangle]
+    pub extern "C" fn sph_error() -> f64 {
+        with_run(|s| latest_error(s).map_or(f64::NAN, |(_, e)| e))
+    }
+
+    /// Fills the view with `x, y, u, v` per particle and returns the
+    /// particle count (0 without a run); [`sph_view`] points at it until
+    /// the next call.
     #[no_mangle]
     pub extern "C" fn sph_fill_view() -> u32 {
         RUN.with(|r| match r.borrow().as_ref() {
             None => 0,
-            Some(run) => VIEW.with(|v| {
-                run.particles_into(&mut v.borrow_mut());
-                run.particles() as u32
+            Some(sim) => VIEW.with(|v| match view_into(sim, &mut v.borrow_mut()) {
+                Ok(()) => sim.particles() as u32,
+                Err(e) => {
+                    failed(e);
+                    0
+                }
             }),
         })
     }
@@ -291,5 +273,50 @@ mod exports {
     #[no_mangle]
     pub extern "C" fn sph_view() -> *const f64 {
         VIEW.with(|v| v.borrow().as_ptr())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_bad_scene_comes_back_as_the_cli_message() {
+        let e = start("case = \"taylor-green\"\nresolution = 0")
+            .err()
+            .expect("resolution 0 is refused");
+        assert!(e.contains("resolution"), "{e}");
+        let e = start("case = \"no-such-case\"")
+            .err()
+            .expect("an unknown case is refused");
+        assert!(e.contains("no-such-case"), "{e}");
+    }
+
+    #[test]
+    fn defaults_are_a_scene_file_that_starts() {
+        let text = defaults("couette").expect("couette is built in");
+        assert!(text.contains("case = \"couette\""), "{text}");
+        let settings = Settings::from_toml(&text).expect("the defaults read back");
+        assert_eq!(settings.case, "couette");
+        assert!(defaults("no-such-case").is_err());
+    }
+
+    #[test]
+    fn the_view_holds_the_particles_in_order() {
+        let mut sim = start("case = \"taylor-green\"\nresolution = 8\nt_end = 0.01\nthreads = 1")
+            .expect("the scene starts");
+        sim.run_to_end().expect("the run ends");
+        let mut view = Vec::new();
+        view_into(&sim, &mut view).expect("the view fills");
+        assert_eq!(view.len(), 4 * 64);
+        let mut v = vec![0.0; sim.len(Field::Velocity)];
+        sim.read(Field::Velocity, &mut v).unwrap();
+        assert_eq!(view[2], v[0]);
+        assert_eq!(view[4 * 63 + 3], v[2 * 63 + 1]);
+        let (t, e) = latest_error(&sim).expect("taylor-green has an exact solution");
+        assert_eq!(t, sim.time());
+        // The exact solution decays by exp(-8 pi^2 nu t); 8 across is coarse,
+        // but the error stays a fraction of the amplitude.
+        assert!(e > 0.0 && e < 0.5, "{e}");
     }
 }

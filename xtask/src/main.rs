@@ -531,11 +531,11 @@ fn bare_metal() -> Result<(), String> {
     Ok(())
 }
 
-fn c_abi() -> Result<(), String> {
-    // The test profile over the whole workspace with its tests selected:
-    // the same feature resolution as `cargo test --workspace`, so every
-    // artifact of the test command is reused (selecting single packages
-    // resolves features differently and compiles sph-std again).
+/// The test profile over the whole workspace with its tests selected: the
+/// same feature resolution as `cargo test --workspace`, so every artifact
+/// of the test command is reused (selecting single packages resolves
+/// features differently and compiles sph-std again).
+fn workspace_build() -> Result<(), String> {
     run_build(
         cargo().args([
             "build",
@@ -547,7 +547,11 @@ fn c_abi() -> Result<(), String> {
             "--tests",
         ]),
         "the workspace's libraries and binaries",
-    )?;
+    )
+}
+
+fn c_abi() -> Result<(), String> {
+    workspace_build()?;
     bare_metal()?;
     let target = target_dir();
     let lib = target.join("debug").join("libsph_ffi.a");
@@ -666,9 +670,9 @@ fn c_abi() -> Result<(), String> {
     Ok(())
 }
 
-/// The browser's run: 16 across, nu = 1e-6 m^2/s, 80 steps (t* = 0.066: the
-/// profile still curved).
-const WEB_RUN: (&str, &str, &str) = ("16", "1e-6", "80");
+/// The browser's run, as the page's query: Taylor-Green at 24 across to
+/// t = 0.2 (Re 100: the vortex decays by 80 %; about 150 steps).
+const WEB_RUN: &str = "run=end&case=taylor-green&resolution=24&re=100&t_end=0.2";
 
 fn web() -> Result<(), String> {
     let args: Vec<String> = env::args().skip(2).collect();
@@ -679,6 +683,10 @@ fn web() -> Result<(), String> {
         .map(|k| args.get(k + 1).cloned().ok_or("--screenshot needs a path"))
         .transpose()?;
     ensure_target("wasm32-unknown-unknown")?;
+    // Without --serve the page is checked against `sph run`.
+    if !serve_only {
+        workspace_build()?;
+    }
     run_build(
         cargo().args([
             "build",
@@ -745,18 +753,17 @@ fn web() -> Result<(), String> {
     outcome
 }
 
-/// Loads the page's fixed run in headless Chromium and compares its error
-/// with the native reference's.
+/// Loads the page's fixed run in headless Chromium, then runs the scene
+/// file the page shows with `sph run` and compares the errors.
 fn check_page(base: &str, screenshot: Option<&str>) -> Result<(), String> {
-    let (across, nu, steps) = WEB_RUN;
-    let url = format!("{base}?across={across}&nu={nu}&steps={steps}");
+    let url = format!("{base}?{WEB_RUN}");
     let browser = ["chromium", "chromium-browser", "google-chrome"]
         .into_iter()
         .find(|b| Command::new(b).arg("--version").output().is_ok())
         .ok_or("no chromium: install Debian's chromium package")?;
     let profile = target_dir().join("web-profile");
     let _ = std::fs::remove_dir_all(&profile);
-    let chromium = |extra: &[String]| {
+    let chromium = |extra: &[String], url: &str| {
         let mut c = Command::new(browser);
         // As root Chromium needs --no-sandbox; the rest keeps it off the
         // network it cannot reach.
@@ -769,66 +776,86 @@ fn check_page(base: &str, screenshot: Option<&str>) -> Result<(), String> {
             "--disable-background-networking",
             "--disable-component-update",
             "--disable-sync",
-            "--virtual-time-budget=30000",
+            "--virtual-time-budget=60000",
         ])
         .arg(format!("--user-data-dir={}", profile.display()))
         .args(extra)
-        .arg(&url);
+        .arg(url);
         c
     };
-    let dom = run_program(&mut chromium(&["--dump-dom".into()]), "chromium --dump-dom")?;
-    let span = |id: &str| -> Option<String> {
-        let open = format!("id=\"{id}\">");
-        let at = dom.find(&open)? + open.len();
-        Some(dom[at..].split('<').next()?.to_owned())
+    let dom = run_program(
+        &mut chromium(&["--dump-dom".into()], &url),
+        "chromium --dump-dom",
+    )?;
+    let element = |id: &str| -> Option<String> {
+        let attribute = format!("id=\"{id}\"");
+        let at = dom.find(&attribute)? + attribute.len();
+        let text = dom[at..].split_once('>')?.1.split('<').next()?;
+        Some(
+            text.replace("&quot;", "\"")
+                .replace("&lt;", "<")
+                .replace("&gt;", ">")
+                .replace("&amp;", "&"),
+        )
     };
-    if span("status").as_deref() != Some("done") {
+    if element("status").as_deref() != Some("done") {
         return fail(format!(
             "the page did not finish its run: status `{}`",
-            span("status").unwrap_or_default()
+            element("status").unwrap_or_default()
         ));
     }
-    let page: f64 = span("linf")
+    let page: f64 = element("linf")
         .ok_or("no linf in the page")?
         .parse()
         .map_err(|e| format!("the page's linf: {e}"))?;
-    let native = run_program(
-        cargo()
-            .args([
-                "run",
-                "-q",
-                "--profile",
-                "wasm",
-                "-p",
-                "sph-web",
-                "--example",
-                "reference",
-                "--",
-            ])
-            .args([across, nu, steps]),
-        "the native reference",
+    let scene = element("scene").ok_or("no scene text in the page")?;
+    let steps = element("steps").unwrap_or_default();
+    // The same scene file through the command line (the test profile's
+    // binary, built above).
+    let out = target_dir().join("web-native");
+    let _ = std::fs::remove_dir_all(&out);
+    std::fs::create_dir_all(&out).map_err(|e| format!("{}: {e}", out.display()))?;
+    let file = out.join("scene.toml");
+    std::fs::write(&file, &scene).map_err(|e| format!("{}: {e}", file.display()))?;
+    let summary = run_program(
+        Command::new(target_dir().join("debug").join("sph"))
+            .arg("run")
+            .arg(&file)
+            .args(["--quiet", "--json", "--out"])
+            .arg(out.join("run")),
+        "sph run",
     )?;
-    let native_linf = numbers_after(&native, "linf=")?
+    // summary.json's outputs are in time order: the last linf is the end's.
+    let native = numbers_after(&summary, "\"linf\":")?
+        .last()
+        .copied()
+        .ok_or("no linf from sph run")?;
+    let native_steps = numbers_after(&summary, "\"steps\":")?
         .first()
         .copied()
-        .ok_or("no linf from the native reference")?;
+        .unwrap_or(f64::NAN);
     println!(
-        "Couette, {across} across, nu {nu}, {steps} steps: page {page:e} (rate {} particle-steps/s), native {native_linf:e}",
-        span("rate").unwrap_or_default()
+        "{}: page {page:e} after {steps} steps (rate {} particle-steps/s), sph run {native:e} after {native_steps} steps",
+        scene.lines().collect::<Vec<_>>().join("; "),
+        element("rate").unwrap_or_default()
     );
-    if page.to_bits() != native_linf.to_bits() {
+    if page.to_bits() != native.to_bits() {
         return fail(format!(
-            "the page's error {page:e} is not the native run's {native_linf:e}"
+            "the page's error {page:e} is not sph run's {native:e}"
         ));
     }
-    println!("the page's error is the native run's, bit for bit");
+    println!("the page's error is sph run's, bit for bit");
     if let Some(path) = screenshot {
         let path = std::path::absolute(path).map_err(|e| format!("{path}: {e}"))?;
+        // The live page (a few seconds of virtual time), not the fixed run.
         run_program(
-            &mut chromium(&[
-                format!("--screenshot={}", path.display()),
-                "--window-size=820,780".into(),
-            ]),
+            &mut chromium(
+                &[
+                    format!("--screenshot={}", path.display()),
+                    "--window-size=1100,800".into(),
+                ],
+                base,
+            ),
             "chromium --screenshot",
         )?;
         println!("screenshot: {}", path.display());
