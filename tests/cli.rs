@@ -891,6 +891,20 @@ fn a_case_scene_is_timed_as_sph_run_steps_it() {
     let _ = std::fs::remove_file(&toml);
 }
 
+/// The texts of the numbers after every `"key":` in a JSON text.
+fn numbers_after<'a>(json: &'a str, key: &str) -> Vec<&'a str> {
+    let quoted = format!("\"{key}\":");
+    json.match_indices(&quoted)
+        .map(|(at, _)| {
+            let rest = json[at + quoted.len()..].trim_start();
+            let end = rest
+                .find(|c: char| !(c.is_ascii_digit() || "+-.eE".contains(c)))
+                .unwrap_or(rest.len());
+            &rest[..end]
+        })
+        .collect()
+}
+
 #[test]
 fn json_flags_print_one_object_and_nothing_else_on_stdout() {
     let out = scratch("json");
@@ -925,7 +939,24 @@ fn json_flags_print_one_object_and_nothing_else_on_stdout() {
     let sweep = [
         "bench", "--sweep", "--sizes", "100,400", "--steps", "2", "--json",
     ];
-    for args in [&couette[..], &run, &bench, &sweep] {
+    // A longer Couette run whose final error, parsed with serde_json's
+    // default (fast, not correctly rounded) float parser and printed again,
+    // came out one unit in the last place off summary.json's.
+    let long = [
+        "run",
+        "couette",
+        "--resolution",
+        "40",
+        "--re",
+        "0.0125",
+        "--threads",
+        "1",
+        "--json",
+        "--overwrite",
+        "--out",
+        &dir,
+    ];
+    for args in [&couette[..], &run, &long, &bench, &sweep] {
         let result = sph().args(args).output().unwrap();
         assert!(result.status.success(), "{args:?}: {result:?}");
         let stdout = String::from_utf8(result.stdout).unwrap();
@@ -941,10 +972,18 @@ fn json_flags_print_one_object_and_nothing_else_on_stdout() {
             assert_eq!(value["units"]["velocity"], "m/s");
             let stamp = value["timestamp"].as_str().unwrap();
             assert!(stamp.len() == 20 && stamp.ends_with('Z'), "{stamp}");
-            let file: serde_json::Value =
-                serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap())
-                    .unwrap();
+            let text = std::fs::read_to_string(out.join("summary.json")).unwrap();
+            let file: serde_json::Value = serde_json::from_str(&text).unwrap();
             assert_eq!(file, value, "{args:?}: stdout is summary.json");
+            // Digit for digit: both are the shortest text of the same f64s
+            // (equal texts, equal bits, whatever the parser's rounding).
+            for key in ["t", "linf", "l2", "kinetic_energy"] {
+                assert_eq!(
+                    numbers_after(&stdout, key),
+                    numbers_after(&text, key),
+                    "{args:?}: `{key}`"
+                );
+            }
         }
     }
     let _ = std::fs::remove_dir_all(&out);
