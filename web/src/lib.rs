@@ -51,24 +51,15 @@ pub fn latest_error(sim: &Simulation) -> Option<(f64, f64)> {
 }
 
 /// Writes `x, y, u, v` per particle (global coordinates; the first two
-/// components in 3D) into `out`, cleared first.
-///
-/// # Errors
-/// As [`Simulation::read`] (it does not fail for buffers sized here).
-pub fn view_into(sim: &Simulation, out: &mut Vec<f64>) -> Result<(), String> {
-    let n = sim.particles();
-    let d = sim.dim();
-    let mut x = vec![0.0; sim.len(Field::Position)];
-    let mut v = vec![0.0; sim.len(Field::Velocity)];
-    sim.read(Field::Position, &mut x)
-        .and_then(|()| sim.read(Field::Velocity, &mut v))
-        .map_err(|e| e.to_string())?;
+/// components in 3D) into `out`, cleared first: from the paused state, as
+/// [`Simulation::read`] copies it.
+pub fn view_into(sim: &Simulation, out: &mut Vec<f64>) {
+    let state = sim.state();
     out.clear();
-    out.reserve(4 * n);
-    for i in 0..n {
-        out.extend_from_slice(&[x[d * i], x[d * i + 1], v[d * i], v[d * i + 1]]);
+    out.reserve(4 * state.x.len());
+    for (x, v) in state.x.iter().zip(&state.v) {
+        out.extend_from_slice(&[x[0], x[1], v[0], v[1]]);
     }
-    Ok(())
 }
 
 /// The functions the page calls by name. `no_mangle` is all the `unsafe`
@@ -201,12 +192,6 @@ pub mod exports {
         with_run(|s| s.steps() as f64)
     }
 
-    /// The time step in s.
-    #[no_mangle]
-    pub extern "C" fn sph_dt() -> f64 {
-        with_run(Simulation::dt)
-    }
-
     /// Fluid particles.
     #[no_mangle]
     pub extern "C" fn sph_particles() -> f64 {
@@ -217,12 +202,6 @@ pub mod exports {
     #[no_mangle]
     pub extern "C" fn sph_dx() -> f64 {
         with_run(|s| s.scene().dx)
-    }
-
-    /// The velocity the case's errors are relative to, in m/s.
-    #[no_mangle]
-    pub extern "C" fn sph_velocity_scale() -> f64 {
-        with_run(|s| s.scene().velocity_scale)
     }
 
     /// The box: `k` = 0, 1 its origin's x and y, 2, 3 its extent's (m).
@@ -259,12 +238,9 @@ pub mod exports {
     pub extern "C" fn sph_fill_view() -> u32 {
         RUN.with(|r| match r.borrow().as_ref() {
             None => 0,
-            Some(sim) => VIEW.with(|v| match view_into(sim, &mut v.borrow_mut()) {
-                Ok(()) => sim.particles() as u32,
-                Err(e) => {
-                    failed(e);
-                    0
-                }
+            Some(sim) => VIEW.with(|v| {
+                view_into(sim, &mut v.borrow_mut());
+                sim.particles() as u32
             }),
         })
     }
@@ -307,7 +283,7 @@ mod tests {
             .expect("the scene starts");
         sim.run_to_end().expect("the run ends");
         let mut view = Vec::new();
-        view_into(&sim, &mut view).expect("the view fills");
+        view_into(&sim, &mut view);
         assert_eq!(view.len(), 4 * 64);
         let mut v = vec![0.0; sim.len(Field::Velocity)];
         sim.read(Field::Velocity, &mut v).unwrap();
