@@ -176,6 +176,51 @@ pub fn mirror_velocity<S: Space>(
     v
 }
 
+/// The velocity of a wall particle at `x` (code `mirrors`, see
+/// [`for_each_wall_particle`]) from the Shepard average `v` of the fluid
+/// velocity near it: no-slip `2 v_w - v`, free slip `v` with the normal
+/// part of `v - v_w` reversed, `v_w` the wall's velocity at `x` (a
+/// spinning wall's rigid rotation there; zero with `homogeneous`).
+#[inline]
+pub fn wall_particle_velocity<S: Space>(
+    domain: &Domain<S>,
+    x: S::Vector,
+    v: S::Vector,
+    mirrors: u8,
+    homogeneous: bool,
+) -> S::Vector {
+    let bits = mirrors & !WALL_PARTICLE;
+    if bits & BODY_FLAG == 0 {
+        return mirror_velocity(domain, v, bits, homogeneous);
+    }
+    let Some(w) = domain.shaped_wall(usize::from(bits & !BODY_FLAG)) else {
+        return v;
+    };
+    let p = widen::<S>(x);
+    let vw = if homogeneous {
+        [0.0; 3]
+    } else {
+        w.surface_velocity(p)
+    };
+    let va = widen::<S>(v);
+    let out = if w.no_slip {
+        [
+            2.0 * vw[0] - va[0],
+            2.0 * vw[1] - va[1],
+            2.0 * vw[2] - va[2],
+        ]
+    } else {
+        let (_, n) = w.shape.distance(p, S::DIM);
+        let rel = (va[0] - vw[0]) * n[0] + (va[1] - vw[1]) * n[1] + (va[2] - vw[2]) * n[2];
+        [
+            va[0] - 2.0 * rel * n[0],
+            va[1] - 2.0 * rel * n[1],
+            va[2] - 2.0 * rel * n[2],
+        ]
+    };
+    narrow::<S>(out)
+}
+
 /// Velocity and mass factor of a shaped wall's ghost (`mirrors` with
 /// [`BODY_FLAG`]) for a source at `x` with velocity `v`; `None` for other
 /// ghosts.
@@ -291,6 +336,18 @@ impl AxisLattice {
         }
     }
 
+    /// The single point of an axis the space does not have.
+    fn flat() -> Self {
+        Self {
+            lower: 0,
+            inside: 1,
+            upper: 0,
+            step: 1.0,
+            spacing: 1.0,
+            extent: 1.0,
+        }
+    }
+
     fn len(&self) -> usize {
         self.lower + self.inside + self.upper
     }
@@ -314,13 +371,28 @@ impl AxisLattice {
     }
 }
 
-/// Calls `f(position, wall bit, volume)` for every wall particle of the
-/// box's planar walls ([`Domain::with_wall_particles`]) within `radius` of
-/// the box, in a fixed order; does nothing without wall particles.
+/// Calls `f(position, code, volume)` for every wall particle
+/// ([`Domain::with_wall_particles`]) within `radius` of the fluid's side
+/// of the walls, in a fixed order; does nothing without wall particles.
+/// `code` is the record's [`Ghost::mirrors`]: [`WALL_PARTICLE`] with the
+/// bit of the planar wall whose rule the particle follows, or with
+/// [`BODY_FLAG`] and the index of a shaped wall.
 ///
-/// The bit names the wall whose rule the particle follows: in a corner, a
-/// moving no-slip wall (a lid claims its corners), else the wall it lies
-/// deepest behind.
+/// The planar walls' particles come first: a lattice behind each wall,
+/// corners filled. A particle in a corner follows a moving no-slip wall (a
+/// lid claims its corners), else the wall it lies deepest behind. Then the
+/// shaped walls' particles: the points of the box's own lattice (the
+/// step along each axis the box's extent over the nearest whole number of
+/// spacings) less than [`Domain::shaped_wall_front`] spacings (half, by
+/// default) in front of a shaped wall or behind it, by less than `radius`
+/// (the largest depth over the walls they lie behind); each follows the
+/// wall whose surface is nearest. A fluid lattice that keeps the points at
+/// least half a spacing in front of every wall (as sph-std's scenes do)
+/// and these wall particles then share one lattice with no gap and no
+/// point twice (the wall side's threshold is smaller by a millionth of a
+/// spacing, so rounding cannot give a point to both). Such points never
+/// hold fluid, so concave corners, thin solids and walls closer together
+/// than a support fill as any other solid.
 pub fn for_each_wall_particle<S: Space>(
     domain: &Domain<S>,
     radius: S::Real,
@@ -329,22 +401,83 @@ pub fn for_each_wall_particle<S: Space>(
     let Some(spacing) = domain.wall_particles() else {
         return;
     };
-    if !domain.has_walls() {
-        return;
-    }
     let (spacing, radius) = (spacing.to_f64(), radius.to_f64());
+    if domain.has_walls() {
+        planar_wall_particles(domain, spacing, radius, |x, bit, volume| {
+            f(x, WALL_PARTICLE | (1 << bit), volume)
+        });
+    }
+    if domain.shaped_count() > 0 {
+        shaped_wall_particles(domain, spacing, radius, f);
+    }
+}
+
+/// The shaped walls' part of [`for_each_wall_particle`].
+fn shaped_wall_particles<S: Space>(
+    domain: &Domain<S>,
+    spacing: f64,
+    radius: f64,
+    mut f: impl FnMut(S::Vector, u8, f64),
+) {
     let axes: [AxisLattice; 3] = core::array::from_fn(|a| {
         if a < S::DIM {
             AxisLattice::new(domain, a, spacing, radius)
         } else {
-            AxisLattice {
-                lower: 0,
-                inside: 1,
-                upper: 0,
-                step: 1.0,
-                spacing: 1.0,
-                extent: 1.0,
+            AxisLattice::flat()
+        }
+    });
+    let mut volume = 1.0;
+    for ax in axes.iter().take(S::DIM) {
+        volume *= ax.step;
+    }
+    let front = domain.shaped_wall_front() * spacing - 1e-6 * spacing;
+    for k2 in 0..axes[2].inside {
+        for k1 in 0..axes[1].inside {
+            for k0 in 0..axes[0].inside {
+                let k = [k0, k1, k2];
+                let mut p = [0.0; 3];
+                for a in 0..S::DIM {
+                    p[a] = (k[a] as f64 + 0.5) * axes[a].step;
+                }
+                // The largest depth behind any wall, and the nearest
+                // surface among the walls the point lies behind.
+                let mut depth = 0.0f64;
+                let mut nearest: Option<(f64, usize)> = None;
+                for b in 0..domain.shaped_count() {
+                    let Some(w) = domain.shaped_wall(b) else {
+                        continue;
+                    };
+                    let (d, _) = w.shape.distance(p, S::DIM);
+                    if d < front {
+                        depth = depth.max(-d);
+                        if nearest.is_none_or(|(best, _)| d.abs() < best) {
+                            nearest = Some((d.abs(), b));
+                        }
+                    }
+                }
+                if let Some((_, b)) = nearest {
+                    if depth < radius {
+                        f(narrow::<S>(p), WALL_PARTICLE | BODY_FLAG | b as u8, volume);
+                    }
+                }
             }
+        }
+    }
+}
+
+/// The planar walls' part of [`for_each_wall_particle`]: `f(position,
+/// wall bit, volume)`.
+fn planar_wall_particles<S: Space>(
+    domain: &Domain<S>,
+    spacing: f64,
+    radius: f64,
+    mut f: impl FnMut(S::Vector, u8, f64),
+) {
+    let axes: [AxisLattice; 3] = core::array::from_fn(|a| {
+        if a < S::DIM {
+            AxisLattice::new(domain, a, spacing, radius)
+        } else {
+            AxisLattice::flat()
         }
     });
     // A moving no-slip wall claims the corners it meets, as a lid extends
@@ -481,19 +614,21 @@ pub fn generate<S: Space>(
         if domain.shaped_count() > 0 {
             let p = widen::<S>(xi);
             let r = radius.to_f64();
+            let tolerance = domain.wall_tolerance();
             for b in 0..domain.shaped_count() {
                 let Some(w) = domain.shaped_wall(b) else {
                     continue;
                 };
                 let img = w.shape.image(p, S::DIM);
-                if !(img.distance >= 0.0) {
+                if !(img.distance >= -tolerance) {
                     return Err(Error::BehindWall {
                         particle: i,
                         wall: b,
                         distance: img.distance,
                     });
                 }
-                if img.distance < r {
+                // Wall particles stand in for the mirror images.
+                if img.distance < r && domain.wall_particles().is_none() {
                     if count < available {
                         tail[count] = into_box(domain, narrow::<S>(img.position));
                         ghosts[count] = Ghost {
@@ -535,7 +670,7 @@ pub fn generate<S: Space>(
         (0..S::DIM)
             .all(|a| domain.is_periodic(a) || (xw[a] > lo[a] - radius && xw[a] < hi[a] + radius))
     };
-    for_each_wall_particle(domain, radius, |xw, bit, _| {
+    for_each_wall_particle(domain, radius, |xw, code, _| {
         if !near(xw) {
             return;
         }
@@ -543,7 +678,7 @@ pub fn generate<S: Space>(
             tail[count] = xw;
             ghosts[count] = Ghost {
                 source: 0,
-                mirrors: WALL_PARTICLE | (1 << bit),
+                mirrors: code,
             };
         }
         count += 1;
@@ -679,7 +814,7 @@ mod tests {
         // The shell's area: (1.4^2 - 1) in the lattice's cells.
         assert!((volume - (1.4f64 * 1.4 - 1.0)).abs() < 1e-12, "{volume}");
         // Deeper behind the x wall (0.15) than the y wall: the x wall's rule.
-        assert_eq!(corner_bits, [0]);
+        assert_eq!(corner_bits, [WALL_PARTICLE | 1]);
         // Unless the y wall moves: a lid claims its corners.
         let lid = walls(Domain::new(V2::new([0.0, 0.0]), V2::new([1.0, 1.0])).unwrap())
             .with_wall(1, Side::Lower, Wall::moving(V2::new([1.0, 0.0])))
@@ -690,7 +825,7 @@ mod tests {
                 claimed.push(bit);
             }
         });
-        assert_eq!(claimed, [2; 8]);
+        assert_eq!(claimed, [WALL_PARTICLE | 4; 8]);
         // A box 1.03 wide: 10 points along it, 0.103 apart, no gap.
         let d = walls(Domain::new(V2::new([0.0, 0.0]), V2::new([1.03, 1.0])).unwrap());
         let mut xs = std::vec::Vec::new();
@@ -726,6 +861,74 @@ mod tests {
         });
         assert_eq!(n, near);
         assert!(n < wall_particle_count(&d, 0.25) / 2);
+    }
+
+    #[test]
+    fn wall_particles_fill_the_solid_of_a_shaped_wall_within_the_radius() {
+        use crate::shape::{Shape, ShapedWall};
+        // A unit box (periodic both ways) with an L-shaped solid in its
+        // lower left: a polygon obstacle with a concave corner at (0.5, 0.5)
+        // seen from the fluid, and a circle obstacle touching nothing.
+        let l = Shape::polygon(
+            &[
+                [0.1, 0.1],
+                [0.7, 0.1],
+                [0.7, 0.3],
+                [0.3, 0.3],
+                [0.3, 0.7],
+                [0.1, 0.7],
+            ],
+            false,
+        )
+        .unwrap();
+        let d = Domain::<D2<f64>>::new(V2::new([0.0, 0.0]), V2::new([1.0, 1.0]))
+            .unwrap()
+            .with_periodic(0)
+            .unwrap()
+            .with_periodic(1)
+            .unwrap()
+            .with_shaped_wall(ShapedWall::new(l))
+            .unwrap()
+            .with_wall_particles(0.05)
+            .unwrap();
+        let mut count = 0;
+        let mut volume = 0.0;
+        for_each_wall_particle(&d, 0.125, |x, code, v| {
+            // The lattice's points lie 0.025 off the edges: those in front
+            // are the fluid's.
+            let (dist, _) = l.distance([x[0], x[1], 0.0], 2);
+            assert!(dist < 0.0 && dist > -0.125, "{x:?} {dist}");
+            assert_eq!(code, WALL_PARTICLE | BODY_FLAG);
+            assert!((v - 0.0025).abs() < 1e-15);
+            volume += v;
+            count += 1;
+        });
+        // The L is 0.2 thick: every lattice point inside it is within
+        // 0.1 of its edges, so all of it: 0.6 x 0.2 + 0.2 x 0.4 = 0.2.
+        assert_eq!(count, 80);
+        assert!((volume - 0.2).abs() < 1e-12);
+        // A deeper radius changes nothing; a shallow one keeps the rim.
+        assert_eq!(wall_particle_count(&d, 0.3), 80);
+        // Within 0.05: the L less its core of points 0.075 or more from
+        // every edge, two arms of 10 x 2 points sharing 2 x 2 (36).
+        assert_eq!(wall_particle_count(&d, 0.05), 80 - 36);
+        // Fluid particles get no mirror images of the wall, only the wall
+        // particles near them; the lattice's points in the fluid never.
+        let mut x = [V2::default(); 100];
+        x[0] = V2::new([0.5, 0.5]);
+        x[1] = V2::new([0.35, 0.35]);
+        let mut ghosts = [Ghost::default(); 100];
+        let n = generate(&d, 0.125, &mut x, 2, &mut ghosts).unwrap();
+        assert!(ghosts[..n]
+            .iter()
+            .all(|g| g.mirrors == WALL_PARTICLE | BODY_FLAG));
+        // The concave corner at (0.3, 0.3) is filled on both sides.
+        let has = |p: [f64; 2]| {
+            x[2..2 + n]
+                .iter()
+                .any(|w| (w[0] - p[0]).abs() < 1e-12 && (w[1] - p[1]).abs() < 1e-12)
+        };
+        assert!(has([0.275, 0.275]) && has([0.325, 0.275]) && has([0.275, 0.325]));
     }
 
     #[test]

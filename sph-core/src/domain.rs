@@ -165,6 +165,9 @@ pub struct Domain<S: Space> {
     /// Spacing of the fixed wall particles that replace mirrored ghosts at
     /// the planar walls, if chosen ([`Self::with_wall_particles`]).
     wall_spacing: Option<S::Real>,
+    /// How far in front of a shaped wall, in spacings, its wall particles
+    /// reach ([`Self::with_shaped_wall_front`]).
+    wall_front: f64,
 }
 
 fn axis_error(axis: usize) -> Error {
@@ -210,6 +213,7 @@ impl<S: Space> Domain<S> {
             n_shaped: 0,
             gravity: None,
             wall_spacing: None,
+            wall_front: 0.5,
         })
     }
 
@@ -339,7 +343,9 @@ impl<S: Space> Domain<S> {
     /// out to the support radius, corners filled. Along a wall the lattice
     /// spacing is the box's extent divided by the nearest whole number of
     /// spacings, so it closes on itself. Give the fluid's particle spacing.
-    /// Shaped walls keep their mirrored ghosts.
+    /// Shaped walls get wall particles too, in place of their mirror
+    /// images: the box lattice's points behind them, as deep as the
+    /// support ([`crate::boundary::for_each_wall_particle`]).
     ///
     /// # Errors
     /// [`Error::InvalidParameter`] if the spacing is not positive and finite.
@@ -353,6 +359,35 @@ impl<S: Space> Domain<S> {
         }
         self.wall_spacing = Some(spacing);
         Ok(self)
+    }
+
+    /// Sets how far in front of a shaped wall, as a fraction of the
+    /// spacing, its wall particles reach: the box lattice's points less
+    /// than `fraction` spacings in front of the surface (or behind it)
+    /// become wall particles. The default, one half, completes a fluid
+    /// seeded on the box lattice no closer than half a spacing to the
+    /// walls; give 0 for a fluid seeded otherwise (on rings, say), which
+    /// the lattice's points in front of the wall would crowd.
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] unless `0 <= fraction <= 1`.
+    pub fn with_shaped_wall_front(mut self, fraction: f64) -> Result<Self> {
+        if !(0.0..=1.0).contains(&fraction) {
+            return Err(Error::InvalidParameter {
+                name: "wall_front",
+                value: fraction,
+                rule: "the wall particles' reach in front of a shaped wall is 0 to 1 spacings",
+            });
+        }
+        self.wall_front = fraction;
+        Ok(self)
+    }
+
+    /// How far in front of a shaped wall its wall particles reach, in
+    /// spacings ([`Self::with_shaped_wall_front`]).
+    #[inline]
+    pub fn shaped_wall_front(&self) -> f64 {
+        self.wall_front
     }
 
     /// The spacing of the wall particles, if the planar walls use them
@@ -374,17 +409,30 @@ impl<S: Space> Domain<S> {
         self.shaped.get(i).and_then(Option::as_ref)
     }
 
-    /// The first shaped wall that `x` lies behind (negative signed
-    /// distance), with that distance.
+    /// How far a fluid particle may lie behind a shaped wall's surface
+    /// before it counts as crossed: none with mirrored ghosts (a particle
+    /// behind the surface has no image); half a spacing with wall particles
+    /// (the fluid and the wall particles share the lattice split at the
+    /// surface, so a particle placed on the surface may step a hair behind
+    /// it; beyond half a spacing it has passed into the wall particles'
+    /// cells).
+    #[inline]
+    pub fn wall_tolerance(&self) -> f64 {
+        self.wall_particles().map_or(0.0, |s| 0.5 * s.to_f64())
+    }
+
+    /// The first shaped wall that `x` lies behind by more than
+    /// [`Self::wall_tolerance`], with its signed distance.
     pub fn behind_wall(&self, x: S::Vector) -> Option<(usize, f64)> {
         if self.n_shaped == 0 {
             return None;
         }
         let p = widen::<S>(x);
+        let tolerance = self.wall_tolerance();
         for (i, w) in self.shaped[..self.n_shaped].iter().enumerate() {
             if let Some(w) = w {
                 let (d, _) = w.shape.distance(p, S::DIM);
-                if !(d >= 0.0) {
+                if !(d >= -tolerance) {
                     return Some((i, d));
                 }
             }
@@ -398,6 +446,18 @@ impl<S: Space> Domain<S> {
     /// # Errors
     /// [`Error::InvalidParameter`] naming the wall's axis.
     pub fn validate(&self) -> Result<()> {
+        let curved = self.shaped[..self.n_shaped]
+            .iter()
+            .flatten()
+            .any(|w| w.curvature != [0.0; 3]);
+        if self.wall_spacing.is_some() && curved {
+            return Err(Error::InvalidParameter {
+                name: "wall.curvature",
+                value: f64::NAN,
+                rule: "wall particles take their velocity from the fluid near them: \
+                       a velocity curvature is a mirror-ghost rule",
+            });
+        }
         for a in 0..S::DIM {
             for w in self.walls[a].iter().flatten() {
                 if self.wall_spacing.is_some()

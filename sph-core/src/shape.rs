@@ -44,6 +44,9 @@ pub const BODY_FLAG: u8 = 0x80;
 /// Parameters of a signed distance function.
 pub const SDF_PARAMS: usize = 8;
 
+/// The most vertices a [`Shape::Polygon`] holds.
+pub const MAX_POLYGON_VERTICES: usize = 12;
+
 /// A signed distance function: `f(params, x)` is the distance from `x`
 /// (local coordinates) to the wall, positive in the fluid.
 pub type SdfFn = fn(&[f64; SDF_PARAMS], [f64; 3]) -> f64;
@@ -90,6 +93,22 @@ pub enum Shape {
         center: [f64; 3],
         /// Radius.
         radius: f64,
+        /// The fluid is inside rather than outside.
+        fluid_inside: bool,
+    },
+    /// A simple polygon (2D; a prism along z in 3D), convex or concave,
+    /// with its first `count` vertices in order (either orientation). The
+    /// closest wall point is on an edge or at a vertex, so the mirror is a
+    /// reflection across an edge or a point reflection through a vertex:
+    /// either keeps area (the Jacobian is 1). A particle near a concave
+    /// corner (the fluid's angle below 180 degrees) gets one image, through
+    /// its closest edge; wall particles fill such corners completely
+    /// (`crate::domain::Domain::with_wall_particles`).
+    Polygon {
+        /// Vertices `[x, y]`; entries from `count` on are ignored.
+        vertices: [[f64; 2]; MAX_POLYGON_VERTICES],
+        /// Number of vertices (3 to [`MAX_POLYGON_VERTICES`]).
+        count: usize,
         /// The fluid is inside rather than outside.
         fluid_inside: bool,
     },
@@ -163,6 +182,18 @@ impl PartialEq for Shape {
                 },
             ) => a == b && r == s && i == j,
             (
+                Polygon {
+                    vertices: a,
+                    count: n,
+                    fluid_inside: i,
+                },
+                Polygon {
+                    vertices: b,
+                    count: m,
+                    fluid_inside: j,
+                },
+            ) => n == m && i == j && a.get(..*n) == b.get(..*m),
+            (
                 Sdf {
                     f,
                     params,
@@ -209,6 +240,32 @@ pub struct Image {
 }
 
 impl Shape {
+    /// A [`Shape::Polygon`] from its vertices in order (either
+    /// orientation), checked.
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] (`wall.vertices`) for fewer than 3 or
+    /// more than [`MAX_POLYGON_VERTICES`] vertices, a non-finite one, a
+    /// repeated one, crossing edges or no area.
+    pub fn polygon(points: &[[f64; 2]], fluid_inside: bool) -> Result<Self> {
+        let mut vertices = [[0.0; 2]; MAX_POLYGON_VERTICES];
+        let count = points.len();
+        if count > MAX_POLYGON_VERTICES {
+            return Err(Error::InvalidParameter {
+                name: "wall.vertices",
+                value: count as f64,
+                rule: "a polygon needs 3 to 12 vertices",
+            });
+        }
+        vertices[..count].copy_from_slice(points);
+        check_polygon(&vertices, count)?;
+        Ok(Shape::Polygon {
+            vertices,
+            count,
+            fluid_inside,
+        })
+    }
+
     /// Signed distance of `x` (positive in the fluid) and the unit normal
     /// into the fluid at its closest wall point, in `dim` dimensions.
     pub fn distance(&self, x: [f64; 3], dim: usize) -> (f64, [f64; 3]) {
@@ -247,6 +304,15 @@ impl Shape {
                 radius,
                 fluid_inside,
             } => radial(x, center, radius, fluid_inside, dim.min(2)),
+            Shape::Polygon {
+                vertices,
+                count,
+                fluid_inside,
+            } => polygon_distance(
+                &vertices[..count.min(MAX_POLYGON_VERTICES)],
+                fluid_inside,
+                x,
+            ),
             Shape::Sdf {
                 f,
                 params,
@@ -270,7 +336,7 @@ impl Shape {
         let wall_point = axpy(-d, n, x);
         let position = axpy(-2.0 * d, n, x);
         let jacobian = match *self {
-            Shape::Plane { .. } | Shape::Channel { .. } => 1.0,
+            Shape::Plane { .. } | Shape::Channel { .. } | Shape::Polygon { .. } => 1.0,
             Shape::Ball { center, .. } | Shape::Cylinder { center, .. } => {
                 let dims = if matches!(self, Shape::Cylinder { .. }) {
                     dim.min(2)
@@ -344,6 +410,20 @@ impl Shape {
                 radius,
                 fluid_inside,
             },
+            Shape::Polygon {
+                mut vertices,
+                count,
+                fluid_inside,
+            } => {
+                for v in &mut vertices {
+                    *v = [v[0] + by[0], v[1] + by[1]];
+                }
+                Shape::Polygon {
+                    vertices,
+                    count,
+                    fluid_inside,
+                }
+            }
             Shape::Sdf {
                 f,
                 params,
@@ -388,6 +468,172 @@ fn stencil(
         lap += (fh - 2.0 * d + fl) / (step * step);
     }
     (d, g, lap)
+}
+
+/// Signed distance (positive in the fluid) and unit normal into the fluid
+/// of `x` from the polygon with `vertices` (its `x`, `y` only): the
+/// closest point over the edges, the sign from the even-odd rule. On the
+/// boundary itself the normal is the first closest edge's.
+fn polygon_distance(vertices: &[[f64; 2]], fluid_inside: bool, x: [f64; 3]) -> (f64, [f64; 3]) {
+    let p = [x[0], x[1]];
+    let n = vertices.len();
+    let mut best = f64::INFINITY;
+    let mut closest = p;
+    let mut edge = [0.0, 0.0];
+    // The closest point lies inside the edge (not at a vertex), and the
+    // side of the edge's line `p` is on (the cross product's sign).
+    let mut interior = false;
+    let mut side = 0.0;
+    let mut inside = false;
+    for k in 0..n {
+        let a = vertices[k];
+        let b = vertices[(k + 1) % n];
+        let e = [b[0] - a[0], b[1] - a[1]];
+        let ap = [p[0] - a[0], p[1] - a[1]];
+        let len2 = e[0] * e[0] + e[1] * e[1];
+        let t = if len2 > 0.0 {
+            ((ap[0] * e[0] + ap[1] * e[1]) / len2).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let q = [a[0] + t * e[0], a[1] + t * e[1]];
+        let d2 = (p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]);
+        if d2 < best {
+            best = d2;
+            closest = q;
+            edge = e;
+            interior = t > 0.0 && t < 1.0;
+            side = e[0] * ap[1] - e[1] * ap[0];
+        }
+        // Even-odd: does the edge cross the horizontal ray to +x?
+        if (a[1] > p[1]) != (b[1] > p[1]) {
+            let xc = a[0] + (p[1] - a[1]) / (b[1] - a[1]) * e[0];
+            if p[0] < xc {
+                inside = !inside;
+            }
+        }
+    }
+    let in_fluid = inside == fluid_inside;
+    let dist = f64s::sqrt(best);
+    let len = f64s::sqrt(edge[0] * edge[0] + edge[1] * edge[1]);
+    let left = [-edge[1] / len, edge[0] / len];
+    let towards = if interior && side != 0.0 {
+        // Along an edge: its normal (exact), on `x`'s side, turned into
+        // the fluid.
+        let s = if (side > 0.0) == in_fluid { 1.0 } else { -1.0 };
+        [s * left[0], s * left[1]]
+    } else if dist > 0.0 {
+        // Nearest a vertex: from it to `x`, turned into the fluid.
+        let s = if in_fluid { 1.0 } else { -1.0 } / dist;
+        [s * (p[0] - closest[0]), s * (p[1] - closest[1])]
+    } else {
+        // On the boundary: the edge's normal on the fluid's side.
+        let s = if (polygon_area(vertices) > 0.0) == fluid_inside {
+            1.0
+        } else {
+            -1.0
+        };
+        [s * left[0], s * left[1]]
+    };
+    (
+        if in_fluid { dist } else { -dist },
+        [towards[0], towards[1], 0.0],
+    )
+}
+
+/// Signed area of a polygon (positive counter-clockwise).
+fn polygon_area(vertices: &[[f64; 2]]) -> f64 {
+    let n = vertices.len();
+    let mut twice = 0.0;
+    for k in 0..n {
+        let (a, b) = (vertices[k], vertices[(k + 1) % n]);
+        twice += a[0] * b[1] - b[0] * a[1];
+    }
+    0.5 * twice
+}
+
+/// Whether segments `ab` and `cd` meet (touching counts).
+fn segments_meet(a: [f64; 2], b: [f64; 2], c: [f64; 2], d: [f64; 2]) -> bool {
+    let orient = |p: [f64; 2], q: [f64; 2], r: [f64; 2]| {
+        let v = (q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0]);
+        if v > 0.0 {
+            1
+        } else if v < 0.0 {
+            -1
+        } else {
+            0
+        }
+    };
+    let on = |p: [f64; 2], q: [f64; 2], r: [f64; 2]| {
+        r[0] >= p[0].min(q[0])
+            && r[0] <= p[0].max(q[0])
+            && r[1] >= p[1].min(q[1])
+            && r[1] <= p[1].max(q[1])
+    };
+    let (o1, o2, o3, o4) = (
+        orient(a, b, c),
+        orient(a, b, d),
+        orient(c, d, a),
+        orient(c, d, b),
+    );
+    if o1 != o2 && o3 != o4 {
+        return true;
+    }
+    (o1 == 0 && on(a, b, c))
+        || (o2 == 0 && on(a, b, d))
+        || (o3 == 0 && on(c, d, a))
+        || (o4 == 0 && on(c, d, b))
+}
+
+/// Checks a polygon: 3 to [`MAX_POLYGON_VERTICES`] finite vertices, no
+/// zero-length edge, no two edges crossing or touching except neighbours
+/// at their shared vertex.
+fn check_polygon(vertices: &[[f64; 2]; MAX_POLYGON_VERTICES], count: usize) -> Result<()> {
+    let bad = |name: &'static str, value: f64, rule: &'static str| {
+        Err(Error::InvalidParameter { name, value, rule })
+    };
+    if !(3..=MAX_POLYGON_VERTICES).contains(&count) {
+        return bad(
+            "wall.vertices",
+            count as f64,
+            "a polygon needs 3 to 12 vertices",
+        );
+    }
+    let v = &vertices[..count];
+    if !v.iter().flatten().all(|c| c.is_finite()) {
+        return bad(
+            "wall.vertices",
+            f64::NAN,
+            "a polygon's vertices must be finite",
+        );
+    }
+    for k in 0..count {
+        let (a, b) = (v[k], v[(k + 1) % count]);
+        if a == b {
+            return bad(
+                "wall.vertices",
+                k as f64,
+                "a polygon's consecutive vertices must differ (vertex index given)",
+            );
+        }
+        for m in k + 1..count {
+            let neighbours = m == k + 1 || (k == 0 && m == count - 1);
+            if neighbours {
+                continue;
+            }
+            if segments_meet(a, b, v[m], v[(m + 1) % count]) {
+                return bad(
+                    "wall.vertices",
+                    k as f64,
+                    "a polygon's edges must not cross or touch (first edge index given)",
+                );
+            }
+        }
+    }
+    if polygon_area(v) == 0.0 {
+        return bad("wall.vertices", 0.0, "a polygon must enclose an area");
+    }
+    Ok(())
 }
 
 fn radius_of(r: [f64; 3], dims: usize) -> f64 {
@@ -603,6 +849,18 @@ impl ShapedWall {
                     );
                 }
             }
+            Shape::Polygon {
+                vertices, count, ..
+            } => {
+                check_polygon(&vertices, count)?;
+                if !no_drift(None) || self.omega != 0.0 {
+                    return bad(
+                        "wall.velocity",
+                        self.omega,
+                        "a polygon's surface cannot slide along itself: it must be at rest",
+                    );
+                }
+            }
             Shape::Sdf {
                 offset,
                 step,
@@ -736,6 +994,117 @@ mod tests {
             // The finite-difference Jacobian agrees to the stencil's error.
             assert!((a.jacobian - b.jacobian).abs() < 1e-5, "{a:?} {b:?}");
         }
+    }
+
+    #[test]
+    fn a_polygon_is_the_nearest_of_its_edges_and_vertices() {
+        // The unit square, fluid inside, against its four planes; either
+        // orientation.
+        let ccw = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
+        let mut cw = ccw;
+        cw.reverse();
+        let planes = [
+            ([0.0, 0.0, 0.0], [1.0, 0.0, 0.0]),
+            ([0.0, 0.0, 0.0], [0.0, 1.0, 0.0]),
+            ([1.0, 1.0, 0.0], [-1.0, 0.0, 0.0]),
+            ([1.0, 1.0, 0.0], [0.0, -1.0, 0.0]),
+        ];
+        for vertices in [ccw, cw] {
+            let sq = Shape::polygon(&vertices, true).unwrap();
+            for x in [
+                [0.3, 0.1, 0.0],
+                [0.9, 0.45, 0.0],
+                [0.5, 0.8, 0.0],
+                [0.02, 0.6, 0.0],
+            ] {
+                let nearest = planes
+                    .iter()
+                    .map(|&(point, normal)| Shape::Plane { point, normal }.distance(x, 2))
+                    .min_by(|a, b| a.0.total_cmp(&b.0))
+                    .unwrap();
+                let (d, n) = sq.distance(x, 2);
+                assert!((d - nearest.0).abs() < 1e-15, "{x:?}");
+                assert_eq!(n, nearest.1);
+                assert_eq!(sq.image(x, 2).jacobian, 1.0);
+            }
+            // Outside, behind the corner (1, 1): negative, the normal
+            // from the point towards the vertex.
+            let (d, n) = sq.distance([1.3, 1.4, 0.0], 2);
+            assert!((d + 0.5).abs() < 1e-15);
+            assert!((n[0] + 0.6).abs() < 1e-15 && (n[1] + 0.8).abs() < 1e-15);
+            // On an edge: the edge's inward normal.
+            assert_eq!(sq.distance([0.5, 0.0, 0.0], 2), (0.0, [0.0, 1.0, 0.0]));
+        }
+        // An obstacle: the square's outside is the fluid. Beyond a convex
+        // corner the image is the point reflection through it.
+        let block = Shape::polygon(&ccw, false).unwrap();
+        let img = block.image([1.3, 1.4, 0.0], 2);
+        assert!((img.distance - 0.5).abs() < 1e-15);
+        assert!((img.position[0] - 0.7).abs() < 1e-15 && (img.position[1] - 0.6).abs() < 1e-15);
+        assert_eq!(img.jacobian, 1.0);
+        assert_eq!(block.distance([0.5, 0.0, 0.0], 2), (0.0, [0.0, -1.0, 0.0]));
+        // A concave polygon (an L, fluid inside): a point in the notch is
+        // behind the wall, one in the corner's reach is nearest the
+        // reflex vertex (1, 1).
+        let l = Shape::polygon(
+            &[
+                [0.0, 0.0],
+                [2.0, 0.0],
+                [2.0, 1.0],
+                [1.0, 1.0],
+                [1.0, 2.0],
+                [0.0, 2.0],
+            ],
+            true,
+        )
+        .unwrap();
+        assert!(l.distance([1.5, 1.5, 0.0], 2).0 < 0.0);
+        let (d, n) = l.distance([0.7, 0.6, 0.0], 2);
+        assert!((d - 0.5).abs() < 1e-15);
+        assert!((n[0] + 0.6).abs() < 1e-15 && (n[1] + 0.8).abs() < 1e-15);
+        // Shifted with the domain's origin.
+        let moved = l.translated([1.0, -1.0, 0.0]);
+        assert_eq!(
+            moved.distance([1.7, -0.4, 0.0], 2),
+            l.distance([0.7, 0.6, 0.0], 2)
+        );
+        assert!(l == l && l != moved);
+    }
+
+    #[test]
+    fn bad_polygons_are_named_errors() {
+        let name = |r: Result<Shape>| match r {
+            Err(Error::InvalidParameter { name, .. }) => name,
+            other => panic!("{other:?}"),
+        };
+        // Too few, too many, repeated, not finite, crossing, flat.
+        assert_eq!(
+            name(Shape::polygon(&[[0.0, 0.0], [1.0, 0.0]], true)),
+            "wall.vertices"
+        );
+        assert_eq!(
+            name(Shape::polygon(&[[0.0, 0.0]; 13], true)),
+            "wall.vertices"
+        );
+        let repeated = [[0.0, 0.0], [1.0, 0.0], [1.0, 0.0], [0.0, 1.0]];
+        assert_eq!(name(Shape::polygon(&repeated, true)), "wall.vertices");
+        let nan = [[0.0, 0.0], [f64::NAN, 0.0], [0.0, 1.0]];
+        assert_eq!(name(Shape::polygon(&nan, true)), "wall.vertices");
+        let bowtie = [[0.0, 0.0], [1.0, 1.0], [1.0, 0.0], [0.0, 1.0]];
+        assert_eq!(name(Shape::polygon(&bowtie, true)), "wall.vertices");
+        let flat = [[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]];
+        assert_eq!(name(Shape::polygon(&flat, true)), "wall.vertices");
+        // A polygon wall must be at rest.
+        let tri = Shape::polygon(&[[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]], false).unwrap();
+        assert!(ShapedWall::new(tri).validate(2).is_ok());
+        assert!(ShapedWall::new(tri)
+            .spinning(1.0, [0.0; 3])
+            .validate(2)
+            .is_err());
+        assert!(ShapedWall::new(tri)
+            .sliding([1.0, 0.0, 0.0])
+            .validate(2)
+            .is_err());
     }
 
     #[test]

@@ -896,7 +896,11 @@ where
         for g in &self.a.ghosts[..state.n_ghost] {
             let shaped = g.mirrors & crate::shape::BODY_FLAG != 0;
             let wall = g.mirrors & boundary::WALL_PARTICLE != 0;
-            let known = if wall {
+            let known = if wall && shaped {
+                self.domain.wall_particles().is_some()
+                    && usize::from(g.mirrors & !(boundary::WALL_PARTICLE | crate::shape::BODY_FLAG))
+                        < self.domain.shaped_count()
+            } else if wall {
                 self.domain.wall_particles().is_some()
                     && (u16::from(g.mirrors & !boundary::WALL_PARTICLE) & !mirror_bits) == 0
             } else if shaped {
@@ -1332,8 +1336,13 @@ where
                     } else {
                         S::Vector::zero()
                     };
-                    let bits = g.mirrors & !boundary::WALL_PARTICLE;
-                    *vk = boundary::mirror_velocity(domain, average, bits, homogeneous);
+                    *vk = boundary::wall_particle_velocity(
+                        domain,
+                        near.x[i],
+                        average,
+                        g.mirrors,
+                        homogeneous,
+                    );
                     let volume = boundary::wall_particle_volume(domain, near.x[i]);
                     *mk = rho0 * S::Real::from_f64(volume);
                     continue;
