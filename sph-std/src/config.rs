@@ -141,16 +141,19 @@ named_enum!(
 );
 
 named_enum!(
-    /// How the box's planar walls act on the fluid.
+    /// How the walls (the box's planar walls and the shaped ones) act on
+    /// the fluid.
     WallBoundary {
         /// Mirrored ghosts: each fluid particle near a wall has an image
-        /// behind it (`docs/physics.md` 5.1); exact for planar walls on an
-        /// aligned lattice, the channel cases' choice.
+        /// behind it (`docs/physics.md` 5.1, 5.5); exact for planar walls on
+        /// an aligned lattice, the channel cases' choice. A shaped wall
+        /// images each particle once, through its closest point.
         Mirror => "mirror",
         /// Fixed wall particles behind the walls with values from the
         /// fluid near them (Adami, Hu & Adams 2012; `docs/physics.md`
         /// 5.3): their repulsion does not vanish as a particle reaches the
-        /// wall, which a free-surface flow driven at a wall needs.
+        /// wall, which a free-surface flow driven at a wall needs, and
+        /// they fill concave corners and thin solids of shaped walls.
         Particles => "particles",
     }
 );

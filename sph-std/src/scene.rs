@@ -726,6 +726,18 @@ pub fn lattice(scene: &Scene) -> Vec<[f64; 3]> {
     if let Some(points) = &scene.initial {
         return points.clone();
     }
+    // Mirrored ghosts: the fluid keeps half a spacing in front of a shaped
+    // wall, so no particle meets its own image closer than a spacing. Wall
+    // particles: the box lattice is split at the wall itself, the fluid
+    // taking the points in front of it and the wall particles those behind
+    // (`sph_core::boundary::for_each_wall_particle`, with the front at 0),
+    // so the wall lies where the geometry puts it at any angle. Either way
+    // the fluid's threshold is half a millionth of a spacing below the
+    // wall particles', so rounding cannot give a point to both.
+    let front = match scene.physics.wall_boundary {
+        WallBoundary::Particles => 0.0,
+        WallBoundary::Mirror => 0.5,
+    } - 0.5e-6;
     let d = scene.dim;
     let dx = scene.dx;
     let mut counts = [1usize; 3];
@@ -748,7 +760,7 @@ pub fn lattice(scene: &Scene) -> Vec<[f64; 3]> {
                     && scene
                         .shaped_walls
                         .iter()
-                        .all(|w| w.shape.distance(p, d).0 >= 0.5 * dx);
+                        .all(|w| w.shape.distance(p, d).0 >= front * dx);
                 if inside {
                     points.push(p);
                 }
@@ -1093,7 +1105,11 @@ impl<E: Executor> Context<'_, '_, E> {
             }
         }
         if s.physics.wall_boundary == WallBoundary::Particles {
-            domain = domain.with_wall_particles(f(s.dx))?;
+            // The wall particles fill the solid behind a shaped wall and
+            // nothing in front of it (see `lattice`).
+            domain = domain
+                .with_wall_particles(f(s.dx))?
+                .with_shaped_wall_front(0.0)?;
         }
         let to_local = [-s.origin[0], -s.origin[1], -s.origin[2]];
         for w in &s.shaped_walls {
@@ -1162,7 +1178,7 @@ impl<E: Executor> Context<'_, '_, E> {
             }
         }
         // A shaped wall mirrors at most every fluid particle once. Wall
-        // particles replace the planar walls' mirrors and fill a shell as
+        // particles replace the mirrors of every wall and fill a shell as
         // deep as the neighbour-list radius (half a spacing added, against
         // rounding at the last layer).
         let (mirrored, wall_particles) = if domain.wall_particles().is_some() {
@@ -1174,7 +1190,12 @@ impl<E: Executor> Context<'_, '_, E> {
         } else {
             (2 * ghosts, 0)
         };
-        let capacity = n + mirrored + n * s.shaped_walls.len() + wall_particles;
+        let shaped_mirrors = if domain.wall_particles().is_some() {
+            0
+        } else {
+            n * s.shaped_walls.len()
+        };
+        let capacity = n + mirrored + shaped_mirrors + wall_particles;
         let cells = Solver::<S, K, M, D, T>::cells_needed(&domain, f(h))?;
         let width = crate::driver::list_width(S::DIM, kappa, s.physics.beta, SKIN);
         let mut buffers = Buffers::<S>::new(capacity, cells).with_lists(n, width);

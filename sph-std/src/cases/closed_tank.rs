@@ -5,7 +5,12 @@
 //! images included) or, with `container = "circle"`, a circle of diameter
 //! 1 (one [`Shape::Ball`] wall with the fluid inside; the box's lattice
 //! clipped to the points at least `dx/2` inside, so that the interior stays
-//! a regular lattice). Gravity `g = 1` along `-y`, `rho0 = 1`, `nu` from
+//! a regular lattice), or a polygon with the fluid inside:
+//! `container = "step"`, the square with a block `D/4` square cut from its
+//! lower right (a floor with a step: concave corners and a convex one, on
+//! the lattice's lines when `resolution` is a multiple of 4), or
+//! `"hopper"`, the square with its lower corners cut at 45 degrees `D/4`
+//! along each side (a floor at an angle to the lattice). Gravity `g = 1` along `-y`, `rho0 = 1`, `nu` from
 //! `Re = sqrt(g D) D / nu` (10 by default), `c0 = 10 sqrt(g D)`, the
 //! consistent operators, no density diffusion (without a hydrostatic
 //! correction it would diffuse the very density gradient the state
@@ -29,13 +34,17 @@
 //! `wall_pressure = "hydrostatic"` (the default) the ghosts carry the
 //! weight of the fluid between source and ghost; with `"mirror"` they copy
 //! their source's pressure and the wall has no normal pressure gradient
-//! (docs/validation.md gives both). The square stays at rest. The circle
-//! does not yet meet the square's bounds: the box lattice clipped by the
-//! circle is irregular next to the wall, and the symmetric pressure
-//! gradient turns that irregularity into a force proportional to the
-//! absolute pressure (docs/physics.md 5.1; measured in docs/validation.md
-//! with the corrected gradient, which removes it at 40 across but is
-//! unstable at 20 and 80).
+//! (docs/validation.md gives both). The square stays at rest. The curved
+//! and polygonal containers stay at rest to the square's bounds with
+//! `wall_boundary = "particles"`: the box lattice is split at the wall
+//! into fluid and wall particles, so the fluid next to the wall sees the
+//! same regular lattice as inside. With mirrored ghosts the circle keeps
+//! its particles but not its rest (the clipped lattice is irregular next
+//! to the wall and the symmetric pressure gradient turns that into a
+//! force proportional to the absolute pressure, docs/physics.md 5.1), and
+//! the step and the hopper are refused: at their concave corners a
+//! particle's ghost is mirrored through one side only, and particles go
+//! through the other (docs/validation.md measures both).
 
 use std::sync::Arc;
 
@@ -49,7 +58,7 @@ use crate::scene::{AxisSpec, Region, RunRecord, Scene, WallSpec};
 /// The case's table entry.
 pub const CASE: Case = Case {
     name: "closed-tank",
-    about: "a closed container (square, or a circle with container = \"circle\") full of fluid at rest under gravity: the hydrostatic state kept",
+    about: "a closed container (square; container = \"circle\", \"step\" or \"hopper\" for a curved or polygonal one) full of fluid at rest under gravity: the hydrostatic state kept",
     defaults,
     build,
     figure,
@@ -65,6 +74,15 @@ pub enum Container {
     /// A circle of diameter 1: one curved wall.
     #[serde(rename = "circle")]
     Circle,
+    /// The unit square with a step in its floor (a block `D/4` square in
+    /// the lower right): one polygon wall with five concave corners and a
+    /// convex one, all on the lattice's lines.
+    #[serde(rename = "step")]
+    Step,
+    /// The unit square with its lower corners cut at 45 degrees, `D/4` along
+    /// each side: one polygon wall, a floor with two 135-degree corners.
+    #[serde(rename = "hopper")]
+    Hopper,
 }
 
 /// Gravity.
@@ -82,6 +100,15 @@ fn defaults() -> Settings {
 fn build(s: &Settings) -> Result<Scene> {
     super::only_2d(s)?;
     let container = s.container.unwrap_or(Container::Square);
+    if matches!(container, Container::Step | Container::Hopper)
+        && s.wall_boundary == crate::config::WallBoundary::Mirror
+    {
+        return Err(crate::error::Error::config(
+            "wall_boundary",
+            "mirror",
+            "the step and hopper containers have concave corners, where mirrored ghosts let particles through: use wall_boundary = \"particles\"",
+        ));
+    }
     let dx = D / s.resolution as f64;
     let rho0 = 1.0;
     let scale = (G * D).sqrt();
@@ -99,14 +126,33 @@ fn build(s: &Settings) -> Result<Scene> {
             ],
             Vec::new(),
         ),
-        Container::Circle => {
+        Container::Circle | Container::Step | Container::Hopper => {
             // The box holds the wall's ghosts: the support plus rows to spare.
             let margin = (2.0 * s.beta * 1.5).ceil() * dx + 2.0 * dx;
-            let wall = ShapedWall::new(Shape::Ball {
-                center,
-                radius: 0.5 * D,
-                fluid_inside: true,
-            });
+            let q = 0.25 * D;
+            let shape = match container {
+                Container::Step => Shape::polygon(
+                    &[
+                        [0.0, 0.0],
+                        [D - q, 0.0],
+                        [D - q, q],
+                        [D, q],
+                        [D, D],
+                        [0.0, D],
+                    ],
+                    true,
+                )?,
+                Container::Hopper => Shape::polygon(
+                    &[[0.0, q], [q, 0.0], [D - q, 0.0], [D, q], [D, D], [0.0, D]],
+                    true,
+                )?,
+                _ => Shape::Ball {
+                    center,
+                    radius: 0.5 * D,
+                    fluid_inside: true,
+                },
+            };
+            let wall = ShapedWall::new(shape);
             (
                 [-margin, -margin, 0.0],
                 [D + 2.0 * margin, D + 2.0 * margin, 0.0],

@@ -31,7 +31,21 @@
 //! [[scene.regions]]        # fluid boxes (optional: the whole box)
 //! lo = [0.0, 0.0]
 //! hi = [1.0, 0.5]
+//!
+//! [[scene.shapes]]         # walls of any shape (optional, at most 8)
+//! kind = "polygon"         # "circle", "polygon", "plane" (2D); "sphere", "cylinder", "polygon", "plane" (3D)
+//! vertices = [[0.4, 0.1], [0.6, 0.1], [0.5, 0.3]]
+//! fluid_inside = false     # an obstacle (true: a container)
+//! free_slip = false        # (optional)
+//! # circle, sphere, cylinder: center, radius, fluid_inside, omega (spin; not spheres)
+//! # plane: point, normal (into the fluid), velocity (along the plane)
 //! ```
+//!
+//! Fluid fills the regions' lattice points at least half a spacing in
+//! front of every shape. With `wall_boundary = "particles"` the shapes get
+//! wall particles (the box lattice's points behind them), which fill
+//! concave corners and thin solids; with mirrors (the default) each shape
+//! images the fluid through its closest point.
 //!
 //! Initial velocity profiles: `rest`; `uniform` with `value` (a vector);
 //! `shear` with `rate`, `u_x = rate (y - origin_y)`; `taylor-green` with
@@ -48,7 +62,7 @@ use serde::{Deserialize, Serialize};
 use super::{Case, Settings};
 use crate::config::check;
 use crate::error::{Error, Result};
-use sph_core::prelude::Reflection;
+use sph_core::prelude::{Reflection, Shape, ShapedWall};
 
 use crate::scene::{AxisSpec, Region, RunRecord, ScalarField, Scene, VectorField, WallSpec};
 
@@ -135,6 +149,210 @@ pub struct WallPart {
     pub body_force_curvature: bool,
 }
 
+/// A wall of any shape in a custom scene (`[[scene.shapes]]`, global
+/// coordinates; see the module docs).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum ShapePart {
+    /// A circle (2D).
+    Circle {
+        /// Centre.
+        center: Vec<f64>,
+        /// Radius.
+        radius: f64,
+        /// The fluid is inside (a container) rather than outside.
+        #[serde(default)]
+        fluid_inside: bool,
+        /// Spin about the centre, radians per second (anticlockwise).
+        #[serde(default)]
+        omega: f64,
+        /// Free slip instead of no-slip.
+        #[serde(default)]
+        free_slip: bool,
+    },
+    /// A sphere (3D).
+    Sphere {
+        /// Centre.
+        center: Vec<f64>,
+        /// Radius.
+        radius: f64,
+        /// The fluid is inside rather than outside.
+        #[serde(default)]
+        fluid_inside: bool,
+        /// Free slip instead of no-slip.
+        #[serde(default)]
+        free_slip: bool,
+    },
+    /// A cylinder along z (3D).
+    Cylinder {
+        /// A point of the axis.
+        center: Vec<f64>,
+        /// Radius.
+        radius: f64,
+        /// The fluid is inside rather than outside.
+        #[serde(default)]
+        fluid_inside: bool,
+        /// Spin about the axis, radians per second.
+        #[serde(default)]
+        omega: f64,
+        /// Free slip instead of no-slip.
+        #[serde(default)]
+        free_slip: bool,
+    },
+    /// A polygon, convex or concave (2D; a prism along z in 3D).
+    Polygon {
+        /// Vertices `[x, y]` in order, 3 to 12.
+        vertices: Vec<[f64; 2]>,
+        /// The fluid is inside rather than outside.
+        #[serde(default)]
+        fluid_inside: bool,
+        /// Free slip instead of no-slip.
+        #[serde(default)]
+        free_slip: bool,
+    },
+    /// A plane at any angle: the fluid on the side its normal points to.
+    Plane {
+        /// A point of the plane.
+        point: Vec<f64>,
+        /// The normal into the fluid (any length but zero).
+        normal: Vec<f64>,
+        /// Velocity of the surface along itself (optional).
+        #[serde(default)]
+        velocity: Vec<f64>,
+        /// Free slip instead of no-slip.
+        #[serde(default)]
+        free_slip: bool,
+    },
+}
+
+impl ShapePart {
+    /// The core's wall for this part, checked, in global coordinates;
+    /// `k` numbers it in error messages.
+    fn wall(&self, k: usize, d: usize) -> Result<ShapedWall> {
+        let key = |field: &str| format!("scene.shapes[{k}].{field}");
+        let radius_ok = |r: f64| {
+            check(
+                r.is_finite() && r > 0.0,
+                &key("radius"),
+                r,
+                "must be positive and finite",
+            )
+        };
+        let dims = |want: usize, kind: &str| {
+            check(
+                d == want,
+                &key("kind"),
+                kind,
+                &format!("needs a {want}D scene (circle and polygon 2D; sphere and cylinder 3D; polygon and plane either)"),
+            )
+        };
+        let (shape, omega, center, velocity, free_slip) = match self {
+            ShapePart::Circle {
+                center,
+                radius,
+                fluid_inside,
+                omega,
+                free_slip,
+            } => {
+                dims(2, "circle")?;
+                radius_ok(*radius)?;
+                let c = vector(&key("center"), center, d)?;
+                let shape = Shape::Ball {
+                    center: c,
+                    radius: *radius,
+                    fluid_inside: *fluid_inside,
+                };
+                (shape, *omega, c, [0.0; 3], *free_slip)
+            }
+            ShapePart::Sphere {
+                center,
+                radius,
+                fluid_inside,
+                free_slip,
+            } => {
+                dims(3, "sphere")?;
+                radius_ok(*radius)?;
+                let c = vector(&key("center"), center, d)?;
+                let shape = Shape::Ball {
+                    center: c,
+                    radius: *radius,
+                    fluid_inside: *fluid_inside,
+                };
+                (shape, 0.0, c, [0.0; 3], *free_slip)
+            }
+            ShapePart::Cylinder {
+                center,
+                radius,
+                fluid_inside,
+                omega,
+                free_slip,
+            } => {
+                dims(3, "cylinder")?;
+                radius_ok(*radius)?;
+                let c = vector(&key("center"), center, d)?;
+                let shape = Shape::Cylinder {
+                    center: c,
+                    radius: *radius,
+                    fluid_inside: *fluid_inside,
+                };
+                (shape, *omega, c, [0.0; 3], *free_slip)
+            }
+            ShapePart::Polygon {
+                vertices,
+                fluid_inside,
+                free_slip,
+            } => {
+                let shape = Shape::polygon(vertices, *fluid_inside).map_err(|e| {
+                    Error::config(key("vertices"), format!("{vertices:?}"), core_rule(&e))
+                })?;
+                (shape, 0.0, [0.0; 3], [0.0; 3], *free_slip)
+            }
+            ShapePart::Plane {
+                point,
+                normal,
+                velocity,
+                free_slip,
+            } => {
+                let p = vector(&key("point"), point, d)?;
+                let n = vector(&key("normal"), normal, d)?;
+                let len = libm::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+                check(
+                    len > 0.0,
+                    &key("normal"),
+                    format!("{normal:?}"),
+                    "must not be zero",
+                )?;
+                let n = [n[0] / len, n[1] / len, n[2] / len];
+                let v = optional_vector(&key("velocity"), velocity, d)?;
+                let shape = Shape::Plane {
+                    point: p,
+                    normal: n,
+                };
+                (shape, 0.0, [0.0; 3], v, *free_slip)
+            }
+        };
+        check(omega.is_finite(), &key("omega"), omega, "must be finite")?;
+        let mut wall = ShapedWall::new(shape).sliding(velocity);
+        if omega != 0.0 {
+            wall = wall.spinning(omega, center);
+        }
+        if free_slip {
+            wall = wall.free_slip();
+        }
+        wall.validate(d)
+            .map_err(|e| Error::config(key("kind"), format!("{self:?}"), core_rule(&e)))?;
+        Ok(wall)
+    }
+}
+
+/// The rule of a core error, for a message that names the scene's key.
+fn core_rule(e: &sph_core::error::Error) -> String {
+    match e {
+        sph_core::error::Error::InvalidParameter { rule, .. } => (*rule).to_string(),
+        other => other.to_string(),
+    }
+}
+
 /// A box of fluid.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -201,6 +419,9 @@ pub struct Parts {
     /// Walls.
     #[serde(default)]
     pub walls: Vec<WallPart>,
+    /// Walls of any shape, at most eight.
+    #[serde(default)]
+    pub shapes: Vec<ShapePart>,
     /// Fluid regions (empty: the whole box).
     #[serde(default)]
     pub regions: Vec<RegionPart>,
@@ -356,6 +577,18 @@ fn build(s: &Settings) -> Result<Scene> {
             "must be positive",
         )?;
     }
+    check(
+        parts.shapes.len() <= sph_core::shape::MAX_SHAPED_WALLS,
+        "scene.shapes",
+        parts.shapes.len(),
+        "at most 8 walls of any shape",
+    )?;
+    let shaped_walls = parts
+        .shapes
+        .iter()
+        .enumerate()
+        .map(|(k, p)| p.wall(k, d))
+        .collect::<Result<Vec<_>>>()?;
     let (velocity, pressure) = profile(&parts.velocity, origin, d, parts.rho0)?;
     let nu = parts.velocity_scale * parts.length_scale / s.re;
     Ok(Scene {
@@ -365,7 +598,7 @@ fn build(s: &Settings) -> Result<Scene> {
         extent,
         axes,
         dx,
-        shaped_walls: Vec::new(),
+        shaped_walls,
         initial: None,
         summary: Vec::new(),
         regions,
@@ -473,5 +706,114 @@ pub(crate) fn speed_figure(scene: &Scene, record: &RunRecord, name: &str) -> Res
         p: Vec::new(),
     };
     let f = record.frames.last().unwrap_or(&empty);
-    crate::plot::speed_scatter_png(f, bounds, &format!("{name} at t = {:.2}", f.t))
+    crate::plot::speed_scatter_png(
+        f,
+        bounds,
+        &format!("{name} at t = {:.2}", f.t),
+        &wall_outlines(scene, bounds),
+    )
+}
+
+/// The walls of a scene as polylines in the plane of its first two axes,
+/// within `bounds` (`[x0, x1, y0, y1]`): the box's planar walls, then each
+/// shaped wall's trace (circles and cylinders as 180-gons; a signed
+/// distance function is not drawn).
+pub(crate) fn wall_outlines(scene: &Scene, bounds: [f64; 4]) -> Vec<Vec<(f64, f64)>> {
+    let mut lines = Vec::new();
+    let (lo, hi) = (
+        scene.origin,
+        [
+            scene.origin[0] + scene.extent[0],
+            scene.origin[1] + scene.extent[1],
+        ],
+    );
+    for a in 0..2 {
+        if let AxisSpec::Walls(lower, upper) = &scene.axes[a] {
+            for (wall, at) in [(lower, lo[a]), (upper, hi[a])] {
+                if wall.is_some() {
+                    lines.push(if a == 0 {
+                        vec![(at, lo[1]), (at, hi[1])]
+                    } else {
+                        vec![(lo[0], at), (hi[0], at)]
+                    });
+                }
+            }
+        }
+    }
+    // The part of the line through `p` along `t` inside the bounds.
+    let clipped = |p: [f64; 3], t: [f64; 2]| -> Option<Vec<(f64, f64)>> {
+        let (mut s0, mut s1) = (f64::NEG_INFINITY, f64::INFINITY);
+        for (a, (b0, b1)) in [(bounds[0], bounds[1]), (bounds[2], bounds[3])]
+            .into_iter()
+            .enumerate()
+        {
+            if t[a] == 0.0 {
+                if p[a] < b0 || p[a] > b1 {
+                    return None;
+                }
+            } else {
+                let (u, v) = ((b0 - p[a]) / t[a], (b1 - p[a]) / t[a]);
+                s0 = s0.max(u.min(v));
+                s1 = s1.min(u.max(v));
+            }
+        }
+        (s0 < s1).then(|| {
+            vec![
+                (p[0] + s0 * t[0], p[1] + s0 * t[1]),
+                (p[0] + s1 * t[0], p[1] + s1 * t[1]),
+            ]
+        })
+    };
+    for w in &scene.shaped_walls {
+        match w.shape {
+            Shape::Plane { point, normal } => {
+                lines.extend(clipped(point, [-normal[1], normal[0]]));
+            }
+            Shape::Channel {
+                point,
+                normal,
+                width,
+                period,
+            } => {
+                let t = [-normal[1], normal[0]];
+                // Every repeat whose lines can cross the bounds.
+                let reach = (bounds[1] - bounds[0]).hypot(bounds[3] - bounds[2])
+                    + (point[0] - bounds[0]).hypot(point[1] - bounds[2]);
+                let repeats = if period.is_finite() {
+                    (reach / period).ceil() as i64
+                } else {
+                    0
+                };
+                for k in -repeats..=repeats {
+                    for offset in [0.0, width] {
+                        let s = k as f64 * if period.is_finite() { period } else { 0.0 } + offset;
+                        let p = [point[0] + s * normal[0], point[1] + s * normal[1], 0.0];
+                        lines.extend(clipped(p, t));
+                    }
+                }
+            }
+            Shape::Ball { center, radius, .. } | Shape::Cylinder { center, radius, .. } => {
+                lines.push(
+                    (0..=180)
+                        .map(|k| {
+                            let (s, c) = libm::sincos(2.0 * PI * k as f64 / 180.0);
+                            (center[0] + radius * c, center[1] + radius * s)
+                        })
+                        .collect(),
+                );
+            }
+            Shape::Polygon {
+                vertices, count, ..
+            } => {
+                let n = count.min(vertices.len());
+                lines.push(
+                    (0..=n)
+                        .map(|k| (vertices[k % n][0], vertices[k % n][1]))
+                        .collect(),
+                );
+            }
+            Shape::Sdf { .. } => {}
+        }
+    }
+    lines
 }

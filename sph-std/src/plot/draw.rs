@@ -481,7 +481,8 @@ pub fn line_plot(axes: &Axes, series: &[Series]) -> Result<Vec<u8>> {
 }
 
 /// A scatter of particles coloured by speed (blue slow, red fast), for a
-/// 2D frame in the box `[x0, x1] x [y0, y1]`.
+/// 2D frame in the box `[x0, x1] x [y0, y1]`, with `walls` drawn over it
+/// as black polylines.
 ///
 /// # Errors
 /// If drawing fails.
@@ -489,6 +490,7 @@ pub fn speed_scatter_png(
     frame: &crate::scene::Frame,
     bounds: [f64; 4],
     title: &str,
+    walls: &[Vec<(f64, f64)>],
 ) -> Result<Vec<u8>> {
     ensure_font();
     let (w, h) = (800u32, 820u32);
@@ -529,6 +531,11 @@ pub fn speed_scatter_png(
                 Circle::new((x[0], x[1]), 2, color.filled())
             }))
             .map_err(plot_error)?;
+        for line in walls {
+            chart
+                .draw_series(LineSeries::new(line.iter().copied(), BLACK.stroke_width(2)))
+                .map_err(plot_error)?;
+        }
         root.present().map_err(plot_error)?;
     }
     encode_png(&buffer, w, h)

@@ -88,7 +88,12 @@ mod off {
     ///
     /// # Errors
     /// Always.
-    pub fn speed_scatter_png(_: &crate::scene::Frame, _: [f64; 4], _: &str) -> Result<Vec<u8>> {
+    pub fn speed_scatter_png(
+        _: &crate::scene::Frame,
+        _: [f64; 4],
+        _: &str,
+        _: &[Vec<(f64, f64)>],
+    ) -> Result<Vec<u8>> {
         Err(off())
     }
 
