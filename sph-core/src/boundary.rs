@@ -383,16 +383,17 @@ impl AxisLattice {
 /// lid claims its corners), else the wall it lies deepest behind. Then the
 /// shaped walls' particles: the points of the box's own lattice (the
 /// step along each axis the box's extent over the nearest whole number of
-/// spacings) less than [`Domain::shaped_wall_front`] spacings (half, by
-/// default) in front of a shaped wall or behind it, by less than `radius`
-/// (the largest depth over the walls they lie behind); each follows the
-/// wall whose surface is nearest. A fluid lattice that keeps the points at
-/// least half a spacing in front of every wall (as sph-std's scenes do)
-/// and these wall particles then share one lattice with no gap and no
-/// point twice (the wall side's threshold is smaller by a millionth of a
-/// spacing, so rounding cannot give a point to both). Such points never
-/// hold fluid, so concave corners, thin solids and walls closer together
-/// than a support fill as any other solid.
+/// spacings) behind a shaped wall (or less than
+/// [`Domain::shaped_wall_front`] spacings in front of it, none by
+/// default), by less than `radius` (the largest depth over the walls they
+/// lie behind); each follows the wall whose surface is nearest. A fluid
+/// seeded on the same lattice at the points in front of every wall (as
+/// sph-std's scenes do) and these wall particles then share one lattice
+/// with no gap and no point twice (the wall side's threshold is smaller by
+/// a millionth of a spacing, so rounding cannot give a point to both).
+/// Concave corners and walls closer together than a support fill as any
+/// other solid. A solid thinner than the spacing may hold no lattice point
+/// and then gets no wall particle at all: the fluid does not see it.
 pub fn for_each_wall_particle<S: Space>(
     domain: &Domain<S>,
     radius: S::Real,
@@ -412,6 +413,18 @@ pub fn for_each_wall_particle<S: Space>(
     }
 }
 
+/// The wall-particle lattice along each axis of the box, a single point
+/// along the axes the space does not have.
+fn lattice_axes<S: Space>(domain: &Domain<S>, spacing: f64, radius: f64) -> [AxisLattice; 3] {
+    core::array::from_fn(|a| {
+        if a < S::DIM {
+            AxisLattice::new(domain, a, spacing, radius)
+        } else {
+            AxisLattice::flat()
+        }
+    })
+}
+
 /// The shaped walls' part of [`for_each_wall_particle`].
 fn shaped_wall_particles<S: Space>(
     domain: &Domain<S>,
@@ -419,13 +432,7 @@ fn shaped_wall_particles<S: Space>(
     radius: f64,
     mut f: impl FnMut(S::Vector, u8, f64),
 ) {
-    let axes: [AxisLattice; 3] = core::array::from_fn(|a| {
-        if a < S::DIM {
-            AxisLattice::new(domain, a, spacing, radius)
-        } else {
-            AxisLattice::flat()
-        }
-    });
+    let axes = lattice_axes(domain, spacing, radius);
     let mut volume = 1.0;
     for ax in axes.iter().take(S::DIM) {
         volume *= ax.step;
@@ -473,13 +480,7 @@ fn planar_wall_particles<S: Space>(
     radius: f64,
     mut f: impl FnMut(S::Vector, u8, f64),
 ) {
-    let axes: [AxisLattice; 3] = core::array::from_fn(|a| {
-        if a < S::DIM {
-            AxisLattice::new(domain, a, spacing, radius)
-        } else {
-            AxisLattice::flat()
-        }
-    });
+    let axes = lattice_axes(domain, spacing, radius);
     // A moving no-slip wall claims the corners it meets, as a lid extends
     // over them: its wall particles' velocity `2 V_w - v~` then continues
     // along the wall into the corner. Split by depth, the corner would hold
@@ -890,6 +891,8 @@ mod tests {
             .with_shaped_wall(ShapedWall::new(l))
             .unwrap()
             .with_wall_particles(0.05)
+            .unwrap()
+            .with_shaped_wall_front(0.5)
             .unwrap();
         let mut count = 0;
         let mut volume = 0.0;

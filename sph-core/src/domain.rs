@@ -213,7 +213,7 @@ impl<S: Space> Domain<S> {
             n_shaped: 0,
             gravity: None,
             wall_spacing: None,
-            wall_front: 0.5,
+            wall_front: 0.0,
         })
     }
 
@@ -364,10 +364,11 @@ impl<S: Space> Domain<S> {
     /// Sets how far in front of a shaped wall, as a fraction of the
     /// spacing, its wall particles reach: the box lattice's points less
     /// than `fraction` spacings in front of the surface (or behind it)
-    /// become wall particles. The default, one half, completes a fluid
-    /// seeded on the box lattice no closer than half a spacing to the
-    /// walls; give 0 for a fluid seeded otherwise (on rings, say), which
-    /// the lattice's points in front of the wall would crowd.
+    /// become wall particles. The default, 0, fills the solid and
+    /// completes a fluid seeded on the box lattice at every point in front
+    /// of the walls (as sph-std's scenes do), or one seeded otherwise (on
+    /// rings, say); one half completes a box-lattice fluid kept at least
+    /// half a spacing off the walls.
     ///
     /// # Errors
     /// [`Error::InvalidParameter`] unless `0 <= fraction <= 1`.

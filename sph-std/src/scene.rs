@@ -730,7 +730,7 @@ pub fn lattice(scene: &Scene) -> Vec<[f64; 3]> {
     // wall, so no particle meets its own image closer than a spacing. Wall
     // particles: the box lattice is split at the wall itself, the fluid
     // taking the points in front of it and the wall particles those behind
-    // (`sph_core::boundary::for_each_wall_particle`, with the front at 0),
+    // (`sph_core::boundary::for_each_wall_particle`, its default front),
     // so the wall lies where the geometry puts it at any angle. Either way
     // the fluid's threshold is half a millionth of a spacing below the
     // wall particles', so rounding cannot give a point to both.
@@ -1106,10 +1106,8 @@ impl<E: Executor> Context<'_, '_, E> {
         }
         if s.physics.wall_boundary == WallBoundary::Particles {
             // The wall particles fill the solid behind a shaped wall and
-            // nothing in front of it (see `lattice`).
-            domain = domain
-                .with_wall_particles(f(s.dx))?
-                .with_shaped_wall_front(0.0)?;
+            // nothing in front of it (the default front; see `lattice`).
+            domain = domain.with_wall_particles(f(s.dx))?;
         }
         let to_local = [-s.origin[0], -s.origin[1], -s.origin[2]];
         for w in &s.shaped_walls {
