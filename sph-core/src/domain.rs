@@ -486,9 +486,39 @@ impl<S: Space> Domain<S> {
         Ok(())
     }
 
+    /// The fastest a wall moves as a rigid body ([`ShapedWall::moving`])
+    /// anywhere near the box: its translation speed plus its turn rate
+    /// times the distance from its pivot to the far side of the box. Zero
+    /// when no wall moves as a body.
+    pub fn body_speed(&self) -> f64 {
+        let mut mid = [0.0; 3];
+        let mut diagonal = 0.0;
+        for (a, m) in mid.iter_mut().enumerate().take(S::DIM) {
+            let l = self.extent[a].to_f64();
+            *m = 0.5 * l;
+            diagonal += l * l;
+        }
+        let diagonal = crate::math::f64s::sqrt(diagonal);
+        let mut fastest = 0.0f64;
+        for w in self.shaped[..self.n_shaped].iter().flatten() {
+            let mut r = 0.0;
+            for (a, m) in mid.iter().enumerate() {
+                r += (w.center[a] - m) * (w.center[a] - m);
+            }
+            fastest = fastest.max(w.body_speed(crate::math::f64s::sqrt(r) + diagonal));
+        }
+        fastest
+    }
+
     /// Moves the anchors of point-reflecting walls to where the walls are at
-    /// time `t` (seconds since the start): `V_w t`, wrapped into the box.
+    /// time `t` (seconds since the start): `V_w t`, wrapped into the box;
+    /// and puts the shaped walls that move as bodies where they are
+    /// ([`ShapedWall::set_time`]: not wrapped; a body's shape is not
+    /// periodic, so it must stay inside the box).
     pub fn set_wall_time(&mut self, t: f64) {
+        for w in self.shaped[..self.n_shaped].iter_mut().flatten() {
+            w.set_time(t);
+        }
         for a in 0..S::DIM {
             for s in 0..2 {
                 let Some(w) = self.walls[a][s] else { continue };

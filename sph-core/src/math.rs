@@ -46,6 +46,11 @@ pub(crate) mod f64s {
     pub fn sin(x: f64) -> f64 {
         libm::sin(x)
     }
+    /// Cosine.
+    #[inline]
+    pub fn cos(x: f64) -> f64 {
+        libm::cos(x)
+    }
     /// Largest integer not greater than `x`.
     #[inline]
     pub fn floor(x: f64) -> f64 {

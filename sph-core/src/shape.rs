@@ -17,9 +17,12 @@
 //!
 //! Geometry is evaluated in `f64` (with `libm`, whatever the working
 //! precision and math backend), so the ghosts of every build are the same
-//! bits. A wall's shape does not move: its surface may slide along itself
-//! (a rotating cylinder, a plane sliding in its own plane), which is what the
-//! velocity and angular velocity describe.
+//! bits. A wall's shape stays in place unless it moves as a rigid body
+//! ([`ShapedWall::moving`]: a translation and a turn about a travelling
+//! pivot, put in place each step by
+//! [`crate::domain::Domain::set_wall_time`]); otherwise its surface may only
+//! slide along itself (a rotating cylinder, a plane sliding in its own
+//! plane), which is what the velocity and angular velocity describe.
 //!
 //! A ghost of a shaped wall is recorded with [`BODY_FLAG`] and the wall's
 //! index in [`crate::boundary::Ghost::mirrors`]. Known limits: a particle
@@ -27,7 +30,8 @@
 //! (the planar box walls still get theirs), so a concave corner of two
 //! shaped walls leaves a small gap in the support; two walls closer together
 //! than a support radius (a thin plate with fluid on both sides) mirror
-//! each side's fluid into the other side's reach.
+//! each side's fluid into the other side's reach, and the fluid on each
+//! side sees the other's through the plate (sph-std refuses such scenes).
 
 use crate::error::{Error, Result};
 use crate::math::f64s;
@@ -375,11 +379,41 @@ impl Shape {
     /// The same shape shifted by `by` (a global description made local:
     /// `by` is minus the domain origin).
     pub fn translated(self, by: [f64; 3]) -> Self {
-        let add = |p: [f64; 3]| [p[0] + by[0], p[1] + by[1], p[2] + by[2]];
+        self.moved(by, [1.0, 0.0], [0.0; 3])
+    }
+
+    /// The same shape turned about the z axis through `pivot` by the angle
+    /// whose cosine and sine are `turn`, then shifted by `by`: where a rigid
+    /// body's shape is once it has moved. With `turn = [1, 0]` only the
+    /// shift is applied (bit for bit). A [`Shape::Sdf`] only shifts (its
+    /// function cannot be turned: [`ShapedWall::validate`] refuses a
+    /// turning one), and so does a circle or sphere about its own centre.
+    pub fn moved(self, by: [f64; 3], turn: [f64; 2], pivot: [f64; 3]) -> Self {
+        let still = turn == [1.0, 0.0];
+        let spin = |v: [f64; 3]| {
+            if still {
+                v
+            } else {
+                [
+                    turn[0] * v[0] - turn[1] * v[1],
+                    turn[1] * v[0] + turn[0] * v[1],
+                    v[2],
+                ]
+            }
+        };
+        let place = |p: [f64; 3]| {
+            let q = if still {
+                p
+            } else {
+                let r = spin(sub(p, pivot));
+                [pivot[0] + r[0], pivot[1] + r[1], p[2]]
+            };
+            [q[0] + by[0], q[1] + by[1], q[2] + by[2]]
+        };
         match self {
             Shape::Plane { point, normal } => Shape::Plane {
-                point: add(point),
-                normal,
+                point: place(point),
+                normal: spin(normal),
             },
             Shape::Channel {
                 point,
@@ -387,8 +421,8 @@ impl Shape {
                 width,
                 period,
             } => Shape::Channel {
-                point: add(point),
-                normal,
+                point: place(point),
+                normal: spin(normal),
                 width,
                 period,
             },
@@ -397,7 +431,7 @@ impl Shape {
                 radius,
                 fluid_inside,
             } => Shape::Ball {
-                center: add(center),
+                center: place(center),
                 radius,
                 fluid_inside,
             },
@@ -406,7 +440,7 @@ impl Shape {
                 radius,
                 fluid_inside,
             } => Shape::Cylinder {
-                center: add(center),
+                center: place(center),
                 radius,
                 fluid_inside,
             },
@@ -416,7 +450,8 @@ impl Shape {
                 fluid_inside,
             } => {
                 for v in &mut vertices {
-                    *v = [v[0] + by[0], v[1] + by[1]];
+                    let q = place([v[0], v[1], 0.0]);
+                    *v = [q[0], q[1]];
                 }
                 Shape::Polygon {
                     vertices,
@@ -686,6 +721,46 @@ pub struct ShapedWall {
     /// c_t d^2` (see `crate::domain::Wall::curvature`: `-g / nu` for a
     /// channel driven by a body force `g`).
     pub curvature: [f64; 3],
+    /// Set when the whole wall moves as a rigid body ([`Self::moving`]):
+    /// where it started and how far it has gone.
+    pub body: Option<Body>,
+}
+
+/// A wall that moves as a rigid body: at time `t` a point `x0` of its
+/// starting shape is at `pivot + v t + R(omega t) (x0 - pivot)`, `R` the
+/// turn about the z axis ([`ShapedWall::moving`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Body {
+    /// The shape at time zero.
+    pub shape: Shape,
+    /// The centre of the turn at time zero.
+    pub pivot: [f64; 3],
+    /// The shift `v t` at the current time.
+    pub shift: [f64; 3],
+    /// Cosine and sine of the angle `omega t` at the current time.
+    pub turn: [f64; 2],
+}
+
+impl Body {
+    /// Where the body point that started at `x0` is now.
+    pub fn place(&self, x0: [f64; 3]) -> [f64; 3] {
+        let [c, s] = self.turn;
+        let q = if self.turn == [1.0, 0.0] {
+            x0
+        } else {
+            let r = sub(x0, self.pivot);
+            [
+                self.pivot[0] + c * r[0] - s * r[1],
+                self.pivot[1] + s * r[0] + c * r[1],
+                x0[2],
+            ]
+        };
+        [
+            q[0] + self.shift[0],
+            q[1] + self.shift[1],
+            q[2] + self.shift[2],
+        ]
+    }
 }
 
 impl ShapedWall {
@@ -698,7 +773,73 @@ impl ShapedWall {
             omega: 0.0,
             center: [0.0; 3],
             curvature: [0.0; 3],
+            body: None,
         }
+    }
+
+    /// The same wall moving as a rigid body: translating at `velocity` and
+    /// turning at `omega` (radians per second) about the z axis through
+    /// `pivot`, which travels with it. Its surface moves with the body
+    /// (`v + omega z x (x - pivot(t))`), so a no-slip wall drags the fluid
+    /// along; [`crate::domain::Domain::set_wall_time`] puts it where it
+    /// is at each step, and its wall particles (with
+    /// [`crate::domain::Domain::with_wall_particles`]) travel with it.
+    pub fn moving(mut self, velocity: [f64; 3], omega: f64, pivot: [f64; 3]) -> Self {
+        self.velocity = velocity;
+        self.omega = omega;
+        self.center = pivot;
+        self.body = Some(Body {
+            shape: self.shape,
+            pivot,
+            shift: [0.0; 3],
+            turn: [1.0, 0.0],
+        });
+        self
+    }
+
+    /// Puts a [`Self::moving`] wall where it is at time `t` (seconds since
+    /// the start); does nothing to a wall that stays in place.
+    pub fn set_time(&mut self, t: f64) {
+        let Some(body) = self.body.as_mut() else {
+            return;
+        };
+        let angle = self.omega * t;
+        body.turn = if angle == 0.0 {
+            [1.0, 0.0]
+        } else {
+            [f64s::cos(angle), f64s::sin(angle)]
+        };
+        body.shift = [
+            self.velocity[0] * t,
+            self.velocity[1] * t,
+            self.velocity[2] * t,
+        ];
+        self.shape = body.shape.moved(body.shift, body.turn, body.pivot);
+        self.center = axpy(1.0, body.shift, body.pivot);
+    }
+
+    /// The fastest any point within `reach` of the wall's turning centre
+    /// moves (zero for a wall that stays in place).
+    pub fn body_speed(&self, reach: f64) -> f64 {
+        if self.body.is_none() {
+            return 0.0;
+        }
+        f64s::sqrt(dot(self.velocity, self.velocity)) + self.omega.abs() * reach
+    }
+
+    /// The acceleration of the body point at `p`: `-omega^2 (p - c)` in the
+    /// plane of the turn (zero for a wall that stays in place; a spinning
+    /// surface of a shape at rest does not accelerate its wall particles).
+    pub fn body_acceleration(&self, p: [f64; 3]) -> [f64; 3] {
+        if self.body.is_none() || self.omega == 0.0 {
+            return [0.0; 3];
+        }
+        let w2 = self.omega * self.omega;
+        [
+            -w2 * (p[0] - self.center[0]),
+            -w2 * (p[1] - self.center[1]),
+            0.0,
+        ]
     }
 
     /// The same wall with a velocity curvature (see the field).
@@ -730,6 +871,10 @@ impl ShapedWall {
     /// The same wall shifted by `by` (see [`Shape::translated`]).
     pub fn translated(mut self, by: [f64; 3]) -> Self {
         self.shape = self.shape.translated(by);
+        if let Some(body) = self.body.as_mut() {
+            body.shape = body.shape.translated(by);
+            body.pivot = axpy(1.0, by, body.pivot);
+        }
         self.center = [
             self.center[0] + by[0],
             self.center[1] + by[1],
@@ -767,13 +912,38 @@ impl ShapedWall {
             );
         }
         let unit = |n: [f64; 3]| finite3(n) && (dot(n, n) - 1.0).abs() < 1e-9;
+        // A rigid body may go anywhere; its motion is checked below.
+        let body = self.body.is_some();
         let spins_in_place = |center: [f64; 3]| {
-            self.omega == 0.0 || (0..dim.min(2)).all(|a| self.center[a] == center[a])
+            body || self.omega == 0.0 || (0..dim.min(2)).all(|a| self.center[a] == center[a])
         };
-        let no_drift = |normal: Option<[f64; 3]>| match normal {
-            Some(n) => dot(self.velocity, n) == 0.0,
-            None => self.velocity.iter().all(|&c| c == 0.0),
+        let no_drift = |normal: Option<[f64; 3]>| {
+            body || match normal {
+                Some(n) => dot(self.velocity, n) == 0.0,
+                None => self.velocity.iter().all(|&c| c == 0.0),
+            }
         };
+        if let Some(b) = &self.body {
+            if !finite3(b.pivot) || !finite3(b.shift) || !b.turn.iter().all(|c| c.is_finite()) {
+                return bad(
+                    "wall.pivot",
+                    f64::NAN,
+                    "a moving wall's pivot must be finite",
+                );
+            }
+            if self.omega != 0.0 {
+                let turns = match b.shape {
+                    Shape::Sdf { .. } => Some("a signed-distance wall may translate but not turn"),
+                    Shape::Channel { period, .. } if period.is_finite() => {
+                        Some("a periodic channel may translate but not turn")
+                    }
+                    _ => None,
+                };
+                if let Some(rule) = turns {
+                    return bad("wall.omega", self.omega, rule);
+                }
+            }
+        }
         match self.shape {
             Shape::Plane { point, normal } => {
                 if !finite3(point) || !unit(normal) {
@@ -783,11 +953,11 @@ impl ShapedWall {
                         "a plane needs a finite point and a unit normal",
                     );
                 }
-                if !no_drift(Some(normal)) || self.omega != 0.0 {
+                if !no_drift(Some(normal)) || (self.omega != 0.0 && !body) {
                     return bad(
                         "wall.velocity",
                         dot(self.velocity, normal),
-                        "a plane may only slide along itself",
+                        "a plane may only slide along itself (or move as a body)",
                     );
                 }
             }
@@ -818,11 +988,11 @@ impl ShapedWall {
                         "a channel's period must exceed its width (or be infinite)",
                     );
                 }
-                if !no_drift(Some(normal)) || self.omega != 0.0 {
+                if !no_drift(Some(normal)) || (self.omega != 0.0 && !body) {
                     return bad(
                         "wall.velocity",
                         dot(self.velocity, normal),
-                        "a channel's walls may only slide along themselves",
+                        "a channel's walls may only slide along themselves (or move as a body)",
                     );
                 }
             }
@@ -853,11 +1023,11 @@ impl ShapedWall {
                 vertices, count, ..
             } => {
                 check_polygon(&vertices, count)?;
-                if !no_drift(None) || self.omega != 0.0 {
+                if !body && (!no_drift(None) || self.omega != 0.0) {
                     return bad(
                         "wall.velocity",
                         self.omega,
-                        "a polygon's surface cannot slide along itself: it must be at rest",
+                        "a polygon's surface cannot slide along itself: it stays at rest or moves as a body",
                     );
                 }
             }
@@ -1153,5 +1323,102 @@ mod tests {
         let img = fs.shape.image([0.6, 0.8, 0.0], 2);
         let g = fs.ghost_velocity([0.6, 0.8, 0.0], &img, false);
         assert!((g[0] + 0.6).abs() < 1e-15 && (g[1] + 0.8).abs() < 1e-15);
+    }
+
+    #[test]
+    fn a_moving_body_is_its_starting_shape_turned_and_shifted() {
+        // A unit square centred at (2, 1), turning at omega = pi/2 about
+        // its centre and drifting at (0.5, 0) (exact in binary).
+        let square =
+            Shape::polygon(&[[1.5, 0.5], [2.5, 0.5], [2.5, 1.5], [1.5, 1.5]], true).unwrap();
+        let omega = core::f64::consts::FRAC_PI_2;
+        let mut w = ShapedWall::new(square).moving([0.5, 0.0, 0.0], omega, [2.0, 1.0, 0.0]);
+        assert!(w.validate(2).is_ok());
+        // At time zero nothing moves, bit for bit.
+        w.set_time(0.0);
+        assert_eq!(w.shape, square);
+        // After half a second it has turned 45 degrees anticlockwise and
+        // gone 0.25: the corner (2.5, 0.5) is at (2.25, 1) + (sqrt(1/2), 0).
+        w.set_time(0.5);
+        let body = w.body.unwrap();
+        let corner = body.place([2.5, 0.5, 0.0]);
+        let h = core::f64::consts::FRAC_1_SQRT_2;
+        assert!((corner[0] - (2.25 + h)).abs() < 1e-12 && (corner[1] - 1.0).abs() < 1e-12);
+        let Shape::Polygon { vertices, .. } = w.shape else {
+            panic!("a polygon stays a polygon");
+        };
+        assert!((vertices[1][0] - corner[0]).abs() < 1e-15);
+        assert!((vertices[1][1] - corner[1]).abs() < 1e-15);
+        // A body point keeps its distance to the moved wall.
+        let inside = [1.8, 0.7, 0.0];
+        let (d0, _) = square.distance(inside, 2);
+        let (d1, _) = w.shape.distance(body.place(inside), 2);
+        assert!((d0 - d1).abs() < 1e-12);
+        // The surface moves with the body: v + omega z x (x - c(t)).
+        assert_eq!(w.center, [2.25, 1.0, 0.0]);
+        let u = w.surface_velocity(corner);
+        assert!((u[0] - 0.5).abs() < 1e-12 && (u[1] - omega * h).abs() < 1e-12);
+        let a = w.body_acceleration(corner);
+        assert!((a[0] + omega * omega * h).abs() < 1e-12 && a[1].abs() < 1e-12);
+        assert!((w.body_speed(1.0) - (0.5 + omega)).abs() < 1e-15);
+        // A wall that stays in place neither moves nor accelerates.
+        let mut still = ShapedWall::new(square);
+        still.set_time(3.0);
+        assert_eq!(still.shape, square);
+        assert_eq!(still.body_speed(10.0), 0.0);
+    }
+
+    #[test]
+    fn a_body_may_translate_any_shape_but_not_turn_every_one() {
+        let sdf = Shape::Sdf {
+            f: circle_sdf,
+            params: [0.5, 0.5, 0.2, 0.0, 0.0, 0.0, 0.0, 0.0],
+            offset: [0.0; 3],
+            step: 1e-4,
+        };
+        let slide = ShapedWall::new(sdf).moving([1.0, 0.0, 0.0], 0.0, [0.0; 3]);
+        assert!(slide.validate(2).is_ok());
+        let turn = ShapedWall::new(sdf).moving([0.0; 3], 1.0, [0.5, 0.5, 0.0]);
+        assert!(matches!(
+            turn.validate(2),
+            Err(Error::InvalidParameter {
+                name: "wall.omega",
+                ..
+            })
+        ));
+        let channel = Shape::Channel {
+            point: [0.0; 3],
+            normal: [0.0, 1.0, 0.0],
+            width: 0.5,
+            period: 1.0,
+        };
+        assert!(ShapedWall::new(channel)
+            .moving([0.0, 0.1, 0.0], 0.0, [0.0; 3])
+            .validate(2)
+            .is_ok());
+        assert!(ShapedWall::new(channel)
+            .moving([0.0; 3], 0.1, [0.0; 3])
+            .validate(2)
+            .is_err());
+        // A plane moving along its normal is a piston: allowed as a body,
+        // refused as a sliding surface.
+        let plane = Shape::Plane {
+            point: [0.0; 3],
+            normal: [1.0, 0.0, 0.0],
+        };
+        assert!(ShapedWall::new(plane)
+            .moving([0.2, 0.0, 0.0], 0.0, [0.0; 3])
+            .validate(2)
+            .is_ok());
+        assert!(ShapedWall::new(plane)
+            .sliding([0.2, 0.0, 0.0])
+            .validate(2)
+            .is_err());
+        let mut piston = ShapedWall::new(plane).moving([0.2, 0.0, 0.0], 0.0, [0.0; 3]);
+        piston.set_time(2.0);
+        let (d, _) = piston.shape.distance([1.0, 0.0, 0.0], 2);
+        assert!((d - 0.6).abs() < 1e-15);
+        let nan = ShapedWall::new(plane).moving([0.0; 3], 0.0, [f64::NAN, 0.0, 0.0]);
+        assert!(nan.validate(2).is_err());
     }
 }

@@ -908,7 +908,8 @@ where
             } else {
                 u16::from(g.mirrors) & !mirror_bits == 0
             };
-            if g.source as usize >= n || !known {
+            // A wall particle's source is a lattice index, not a particle.
+            if (!wall && g.source as usize >= n) || !known {
                 return Err(bad("ghosts", f64::from(g.source)));
             }
         }
@@ -1326,20 +1327,24 @@ where
                 if g.mirrors & boundary::WALL_PARTICLE != 0 {
                     // The Shepard average of the fluid velocity, through the
                     // rule of the wall the particle lies behind.
-                    let (mut sum_w, mut sum_v) = (S::Real::ZERO, S::Vector::zero());
-                    near.visit(i, |j, w, _| {
+                    let (mut sum_w, mut sum_v, mut sum_r) =
+                        (S::Real::ZERO, S::Vector::zero(), S::Vector::zero());
+                    near.visit(i, |j, w, r_wf| {
                         sum_w += w;
                         sum_v += fluid_v[j] * w;
+                        sum_r += r_wf * w;
                     });
-                    let average = if sum_w > S::Real::ZERO {
-                        sum_v * (S::Real::ONE / sum_w)
+                    let (average, centroid) = if sum_w > S::Real::ZERO {
+                        let inv = S::Real::ONE / sum_w;
+                        (sum_v * inv, near.x[i] - sum_r * inv)
                     } else {
-                        S::Vector::zero()
+                        (S::Vector::zero(), near.x[i])
                     };
                     *vk = boundary::wall_particle_velocity(
                         domain,
                         near.x[i],
                         average,
+                        centroid,
                         g.mirrors,
                         homogeneous,
                     );
@@ -1370,6 +1375,10 @@ where
         let (fluid, ghosts) = self.a.x.split_at_mut(n);
         for (k, g) in self.a.ghosts[..self.n_ghost].iter().enumerate() {
             if g.mirrors & boundary::WALL_PARTICLE != 0 {
+                // A moving body's wall particles travel with it.
+                if let Some(xw) = boundary::body_wall_particle(&self.domain, g.mirrors, g.source) {
+                    ghosts[k] = boundary::nearest_image(&self.domain, xw, ghosts[k]);
+                }
                 continue;
             }
             let image =
@@ -1426,6 +1435,10 @@ where
                         pw = sum_p;
                         if let Some(g) = gravity {
                             pw += g.dot(sum_r);
+                        }
+                        // A turning body's wall accelerates: `(g - a_w)`.
+                        if let Some(a) = boundary::body_acceleration(domain, near.x[i], g.mirrors) {
+                            pw -= a.dot(sum_r);
                         }
                         pw *= S::Real::ONE / sum_w;
                     }
@@ -1927,8 +1940,10 @@ where
             )?
         };
         if cfg!(feature = "neighbour-lists") && self.list_width > 0 {
-            // A point-reflected ghost also moves with twice its wall's speed.
-            self.travel += (M::sqrt(drift2).to_f64() + 2.0 * self.anchor_speed) * dt;
+            // A point-reflected ghost also moves with twice its wall's
+            // speed, and so may the image through a moving body.
+            let walls = self.anchor_speed + self.domain.body_speed();
+            self.travel += (M::sqrt(drift2).to_f64() + 2.0 * walls) * dt;
         }
         self.domain.set_wall_time(self.time + dt);
         self.evaluate(exec)?;
