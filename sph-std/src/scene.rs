@@ -770,6 +770,75 @@ pub fn lattice(scene: &Scene) -> Vec<[f64; 3]> {
     points
 }
 
+/// Refuses a solid thinner than the kernel support `radius` with fluid on
+/// both sides. Neither boundary method can hold such a solid: its far
+/// side's fluid lies within the near side's support, seen straight
+/// through it (no pair test looks for walls between particles); mirrored
+/// ghosts of both sides crowd into one neighbourhood, and a solid thinner
+/// than the spacing holds no wall particle at all (a plate 0.8 dx thick
+/// let the fluid fall through at its free-fall speed). The probe: from
+/// each fluid point within `radius` in front of a shaped wall (and off
+/// its surface), the point
+/// `radius` straight through it along the normal; if that point lies in
+/// the fluid (in front of every wall, inside a region), the solid there is
+/// thinner than `radius`.
+fn thin_solid(scene: &Scene, points: &[[f64; 3]], radius: f64) -> Result<()> {
+    let d = scene.dim;
+    let walls = &scene.shaped_walls;
+    if walls.is_empty() {
+        return Ok(());
+    }
+    let in_box = |mut q: [f64; 3]| -> Option<[f64; 3]> {
+        for (a, c) in q.iter_mut().enumerate().take(d) {
+            let (lo, l) = (scene.origin[a], scene.extent[a]);
+            if matches!(scene.axes[a], AxisSpec::Periodic) {
+                *c = lo + (*c - lo).rem_euclid(l);
+            } else if *c < lo || *c > lo + l {
+                return None;
+            }
+        }
+        Some(q)
+    };
+    let fluid = |q: [f64; 3]| {
+        walls.iter().all(|w| w.shape.distance(q, d).0 > 0.0)
+            && scene
+                .regions
+                .iter()
+                .any(|r| (0..d).all(|a| q[a] >= r.lo[a] && q[a] < r.hi[a]))
+    };
+    for p in points {
+        for (k, w) in walls.iter().enumerate() {
+            let (dist, n) = w.shape.distance(*p, d);
+            // A point on the surface itself (the lattice puts points on
+            // 45-degree walls) has no reliable normal: its neighbours probe
+            // the same solid.
+            if dist.is_nan() || dist >= radius || dist < 1e-6 * scene.dx {
+                continue;
+            }
+            let through = [
+                p[0] - radius * n[0],
+                p[1] - radius * n[1],
+                p[2] - radius * n[2],
+            ];
+            if in_box(through).is_some_and(fluid) {
+                let key = if scene.case == "custom" {
+                    format!("scene.shapes[{k}]")
+                } else {
+                    format!("{} wall {k}", scene.case)
+                };
+                return Err(Error::config(
+                    key,
+                    format!("near ({:.4}, {:.4})", p[0], p[1]),
+                    format!(
+                        "a solid with fluid on both sides must be at least one kernel support ({radius:.4}) thick: the fluid there would see the fluid beyond it; thicken it or refine the spacing"
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Thickness, in particle rows, of the slab of ghosts a wall mirrors: the
 /// list radius `(1 + skin) kappa beta dx`, rounded up, plus two rows.
 fn ghost_slab(kappa: f64, beta: f64) -> f64 {
@@ -1159,6 +1228,7 @@ impl<E: Executor> Context<'_, '_, E> {
         }
         let h = s.physics.beta * s.dx;
         let kappa = K::SUPPORT;
+        thin_solid(s, &points, kappa * h)?;
         // Ghost capacity: every wall mirrors a slab (1 + skin) R thick, plus
         // corner images; generous, since a shortfall is a clear error.
         let slab = ghost_slab(kappa, s.physics.beta);

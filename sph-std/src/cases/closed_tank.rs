@@ -87,6 +87,36 @@ pub enum Container {
 
 /// Gravity.
 const G: f64 = 1.0;
+
+/// The wall of a curved or polygonal container of size [`D`] with its lower
+/// left corner at the origin, the fluid inside (the square as a polygon).
+pub(crate) fn container_shape(container: Container) -> Result<Shape> {
+    let q = 0.25 * D;
+    let center = [0.5 * D, 0.5 * D, 0.0];
+    Ok(match container {
+        Container::Square => Shape::polygon(&[[0.0, 0.0], [D, 0.0], [D, D], [0.0, D]], true)?,
+        Container::Step => Shape::polygon(
+            &[
+                [0.0, 0.0],
+                [D - q, 0.0],
+                [D - q, q],
+                [D, q],
+                [D, D],
+                [0.0, D],
+            ],
+            true,
+        )?,
+        Container::Hopper => Shape::polygon(
+            &[[0.0, q], [q, 0.0], [D - q, 0.0], [D, q], [D, D], [0.0, D]],
+            true,
+        )?,
+        Container::Circle => Shape::Ball {
+            center,
+            radius: 0.5 * D,
+            fluid_inside: true,
+        },
+    })
+}
 /// The container's size (side or diameter).
 const D: f64 = 1.0;
 
@@ -129,29 +159,7 @@ fn build(s: &Settings) -> Result<Scene> {
         Container::Circle | Container::Step | Container::Hopper => {
             // The box holds the wall's ghosts: the support plus rows to spare.
             let margin = (2.0 * s.beta * 1.5).ceil() * dx + 2.0 * dx;
-            let q = 0.25 * D;
-            let shape = match container {
-                Container::Step => Shape::polygon(
-                    &[
-                        [0.0, 0.0],
-                        [D - q, 0.0],
-                        [D - q, q],
-                        [D, q],
-                        [D, D],
-                        [0.0, D],
-                    ],
-                    true,
-                )?,
-                Container::Hopper => Shape::polygon(
-                    &[[0.0, q], [q, 0.0], [D - q, 0.0], [D, q], [D, D], [0.0, D]],
-                    true,
-                )?,
-                _ => Shape::Ball {
-                    center,
-                    radius: 0.5 * D,
-                    fluid_inside: true,
-                },
-            };
+            let shape = container_shape(container)?;
             let wall = ShapedWall::new(shape);
             (
                 [-margin, -margin, 0.0],

@@ -39,13 +39,19 @@
 //! free_slip = false        # (optional)
 //! # circle, sphere, cylinder: center, radius, fluid_inside, omega (spin; not spheres)
 //! # plane: point, normal (into the fluid), velocity (along the plane)
+//! # any kind: moves = { velocity = [0.1, 0.0], omega = 1.0, pivot = [0.5, 0.5] }
+//! #   (a rigid body: it turns about the pivot, which travels at velocity)
 //! ```
 //!
 //! Fluid fills the regions' lattice points at least half a spacing in
 //! front of every shape. With `wall_boundary = "particles"` the shapes get
 //! wall particles (the box lattice's points behind them), which fill
-//! concave corners and thin solids; with mirrors (the default) each shape
-//! images the fluid through its closest point.
+//! concave corners; with mirrors (the default) each shape images the fluid
+//! through its closest point. A shape that `moves` is where its motion puts
+//! it at each step, and its wall particles travel with it; it must stay
+//! inside the box (a shape is not periodic). A solid with fluid on both
+//! sides must be at least one kernel support thick (a run refuses a
+//! thinner one, naming the shape: the fluid would see through it).
 //!
 //! Initial velocity profiles: `rest`; `uniform` with `value` (a vector);
 //! `shear` with `rate`, `u_x = rate (y - origin_y)`; `taylor-green` with
@@ -169,6 +175,9 @@ pub enum ShapePart {
         /// Free slip instead of no-slip.
         #[serde(default)]
         free_slip: bool,
+        /// The shape moves as a rigid body (optional).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        moves: Option<MotionPart>,
     },
     /// A sphere (3D).
     Sphere {
@@ -182,6 +191,9 @@ pub enum ShapePart {
         /// Free slip instead of no-slip.
         #[serde(default)]
         free_slip: bool,
+        /// The shape moves as a rigid body (optional).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        moves: Option<MotionPart>,
     },
     /// A cylinder along z (3D).
     Cylinder {
@@ -198,6 +210,9 @@ pub enum ShapePart {
         /// Free slip instead of no-slip.
         #[serde(default)]
         free_slip: bool,
+        /// The shape moves as a rigid body (optional).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        moves: Option<MotionPart>,
     },
     /// A polygon, convex or concave (2D; a prism along z in 3D).
     Polygon {
@@ -209,6 +224,9 @@ pub enum ShapePart {
         /// Free slip instead of no-slip.
         #[serde(default)]
         free_slip: bool,
+        /// The shape moves as a rigid body (optional).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        moves: Option<MotionPart>,
     },
     /// A plane at any angle: the fluid on the side its normal points to.
     Plane {
@@ -222,10 +240,43 @@ pub enum ShapePart {
         /// Free slip instead of no-slip.
         #[serde(default)]
         free_slip: bool,
+        /// The shape moves as a rigid body (optional).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        moves: Option<MotionPart>,
     },
 }
 
+/// How a shape moves as a rigid body (`moves = { ... }` in
+/// `[[scene.shapes]]`): at time `t` a point `x0` of the shape is at
+/// `pivot + velocity t + R(omega t) (x0 - pivot)`, `R` the turn about the
+/// z axis.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MotionPart {
+    /// Translation velocity (zero if left out).
+    #[serde(default)]
+    pub velocity: Vec<f64>,
+    /// Turn rate about the z axis through the pivot, radians per second,
+    /// anticlockwise (zero if left out).
+    #[serde(default)]
+    pub omega: f64,
+    /// The centre of the turn at time zero (the origin if left out).
+    #[serde(default)]
+    pub pivot: Vec<f64>,
+}
+
 impl ShapePart {
+    /// The part's rigid motion, if it has one.
+    fn moves(&self) -> Option<&MotionPart> {
+        match self {
+            ShapePart::Circle { moves, .. }
+            | ShapePart::Sphere { moves, .. }
+            | ShapePart::Cylinder { moves, .. }
+            | ShapePart::Polygon { moves, .. }
+            | ShapePart::Plane { moves, .. } => moves.as_ref(),
+        }
+    }
+
     /// The core's wall for this part, checked, in global coordinates;
     /// `k` numbers it in error messages.
     fn wall(&self, k: usize, d: usize) -> Result<ShapedWall> {
@@ -253,6 +304,7 @@ impl ShapePart {
                 fluid_inside,
                 omega,
                 free_slip,
+                ..
             } => {
                 dims(2, "circle")?;
                 radius_ok(*radius)?;
@@ -269,6 +321,7 @@ impl ShapePart {
                 radius,
                 fluid_inside,
                 free_slip,
+                ..
             } => {
                 dims(3, "sphere")?;
                 radius_ok(*radius)?;
@@ -286,6 +339,7 @@ impl ShapePart {
                 fluid_inside,
                 omega,
                 free_slip,
+                ..
             } => {
                 dims(3, "cylinder")?;
                 radius_ok(*radius)?;
@@ -301,6 +355,7 @@ impl ShapePart {
                 vertices,
                 fluid_inside,
                 free_slip,
+                ..
             } => {
                 let shape = Shape::polygon(vertices, *fluid_inside).map_err(|e| {
                     Error::config(key("vertices"), format!("{vertices:?}"), core_rule(&e))
@@ -312,6 +367,7 @@ impl ShapePart {
                 normal,
                 velocity,
                 free_slip,
+                ..
             } => {
                 let p = vector(&key("point"), point, d)?;
                 let n = vector(&key("normal"), normal, d)?;
@@ -338,6 +394,23 @@ impl ShapePart {
         }
         if free_slip {
             wall = wall.free_slip();
+        }
+        if let Some(m) = self.moves() {
+            check(
+                omega == 0.0 && velocity == [0.0; 3],
+                &key("moves"),
+                format!("{m:?}"),
+                "a moving shape's surface moves with it: give its motion in moves, not omega or velocity",
+            )?;
+            check(
+                m.omega.is_finite(),
+                &key("moves.omega"),
+                m.omega,
+                "must be finite",
+            )?;
+            let v = optional_vector(&key("moves.velocity"), &m.velocity, d)?;
+            let pivot = optional_vector(&key("moves.pivot"), &m.pivot, d)?;
+            wall = wall.moving(v, m.omega, pivot);
         }
         wall.validate(d)
             .map_err(|e| Error::config(key("kind"), format!("{self:?}"), core_rule(&e)))?;
@@ -710,15 +783,15 @@ pub(crate) fn speed_figure(scene: &Scene, record: &RunRecord, name: &str) -> Res
         f,
         bounds,
         &format!("{name} at t = {:.2}", f.t),
-        &wall_outlines(scene, bounds),
+        &wall_outlines(scene, bounds, f.t),
     )
 }
 
 /// The walls of a scene as polylines in the plane of its first two axes,
 /// within `bounds` (`[x0, x1, y0, y1]`): the box's planar walls, then each
-/// shaped wall's trace (circles and cylinders as 180-gons; a signed
-/// distance function is not drawn).
-pub(crate) fn wall_outlines(scene: &Scene, bounds: [f64; 4]) -> Vec<Vec<(f64, f64)>> {
+/// shaped wall's trace where it is at time `t` (circles and cylinders as
+/// 180-gons; a signed distance function is not drawn).
+pub(crate) fn wall_outlines(scene: &Scene, bounds: [f64; 4], t: f64) -> Vec<Vec<(f64, f64)>> {
     let mut lines = Vec::new();
     let (lo, hi) = (
         scene.origin,
@@ -765,6 +838,8 @@ pub(crate) fn wall_outlines(scene: &Scene, bounds: [f64; 4]) -> Vec<Vec<(f64, f6
         })
     };
     for w in &scene.shaped_walls {
+        let mut w = *w;
+        w.set_time(t);
         match w.shape {
             Shape::Plane { point, normal } => {
                 lines.extend(clipped(point, [-normal[1], normal[0]]));
@@ -812,8 +887,91 @@ pub(crate) fn wall_outlines(scene: &Scene, bounds: [f64; 4]) -> Vec<Vec<(f64, f6
                         .collect(),
                 );
             }
-            Shape::Sdf { .. } => {}
+            Shape::Sdf { .. } => {
+                let z = scene.origin[2] + 0.5 * scene.extent[2];
+                lines.extend(zero_contour(
+                    |x, y| w.shape.distance([x, y, z], scene.dim).0,
+                    bounds,
+                ));
+            }
         }
     }
     lines
+}
+
+/// The zero contour of `f` within `bounds` (`[x0, x1, y0, y1]`) as
+/// segments, by marching squares on a grid of 240 cells along the longer
+/// side (a signed distance function's wall, to a fraction of a cell).
+fn zero_contour(f: impl Fn(f64, f64) -> f64, bounds: [f64; 4]) -> Vec<Vec<(f64, f64)>> {
+    let (w, h) = (bounds[1] - bounds[0], bounds[3] - bounds[2]);
+    if !(w > 0.0 && h > 0.0) {
+        return Vec::new();
+    }
+    let cell = w.max(h) / 240.0;
+    let (nx, ny) = ((w / cell).ceil() as usize, (h / cell).ceil() as usize);
+    let at = |i: usize, j: usize| {
+        (
+            bounds[0] + w * i as f64 / nx as f64,
+            bounds[2] + h * j as f64 / ny as f64,
+        )
+    };
+    let values: Vec<f64> = (0..=ny)
+        .flat_map(|j| (0..=nx).map(move |i| (i, j)))
+        .map(|(i, j)| {
+            let (x, y) = at(i, j);
+            f(x, y)
+        })
+        .collect();
+    let value = |i: usize, j: usize| values[j * (nx + 1) + i];
+    let mut segments = Vec::new();
+    for j in 0..ny {
+        for i in 0..nx {
+            // Corners anticlockwise from the lower left, and the crossing
+            // on each edge between consecutive corners.
+            let corners = [(i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)];
+            let mut crossings = Vec::with_capacity(4);
+            for k in 0..4 {
+                let (a, b) = (corners[k], corners[(k + 1) % 4]);
+                let (fa, fb) = (value(a.0, a.1), value(b.0, b.1));
+                if (fa < 0.0) != (fb < 0.0) && fa.is_finite() && fb.is_finite() {
+                    let s = fa / (fa - fb);
+                    let (pa, pb) = (at(a.0, a.1), at(b.0, b.1));
+                    crossings.push((pa.0 + s * (pb.0 - pa.0), pa.1 + s * (pb.1 - pa.1)));
+                }
+            }
+            for pair in crossings.chunks_exact(2) {
+                segments.push(vec![pair[0], pair[1]]);
+            }
+        }
+    }
+    segments
+}
+
+#[cfg(test)]
+mod tests {
+    use super::zero_contour;
+
+    #[test]
+    fn the_zero_contour_of_a_circles_distance_is_the_circle() {
+        let (cx, cy, r) = (0.5, 0.4, 0.3);
+        let segments = zero_contour(|x, y| (x - cx).hypot(y - cy) - r, [0.0, 1.0, 0.0, 0.8]);
+        let mut length = 0.0;
+        for s in &segments {
+            for &(x, y) in s {
+                // A crossing interpolated along a cell edge of h = 1/240
+                // lies within h^2 / (8 r) of the circle.
+                assert!(((x - cx).hypot(y - cy) - r).abs() < 1e-5, "{x} {y}");
+            }
+            length += (s[1].0 - s[0].0).hypot(s[1].1 - s[0].1);
+        }
+        // Chords of 1/240 or less fall short of the perimeter by under
+        // (1/240)^2 / (24 r^2) of it.
+        let perimeter = 2.0 * std::f64::consts::PI * r;
+        assert!(
+            (length / perimeter - 1.0).abs() < 1e-4,
+            "{length} {perimeter}"
+        );
+        // A shape outside the bounds draws nothing.
+        assert!(zero_contour(|x, _| x + 2.0, [0.0, 1.0, 0.0, 1.0]).is_empty());
+    }
 }

@@ -36,6 +36,7 @@ mod cylinder_array;
 mod dam_break;
 mod hydrostatic;
 mod poiseuille;
+mod rotating_tank;
 mod taylor_couette;
 mod taylor_green;
 mod tilted_channel;
@@ -52,6 +53,7 @@ pub use dam_break::{
 pub use hydrostatic::{
     exact_pressure as hydrostatic_exact_pressure, pressure_probes as hydrostatic_pressure_probes,
 };
+pub use rotating_tank::pressure_probes as rotating_tank_pressure_probes;
 pub use taylor_couette::{spin_up as taylor_couette_spin_up, steady as taylor_couette_steady};
 pub use taylor_green::velocity as taylor_green_velocity;
 
@@ -116,6 +118,7 @@ pub const CASES: &[Case] = &[
     tilted_channel::CASE,
     cylinder_array::CASE,
     closed_tank::CASE,
+    rotating_tank::CASE,
     hydrostatic::CASE,
     dam_break::CASE,
     cavity::CASE,
@@ -250,9 +253,13 @@ pub struct Settings {
     /// the free-surface cases only.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub gravity_ramp: Option<f64>,
-    /// The container: `case = "closed-tank"` only.
+    /// The container: `case = "closed-tank"` or `"rotating-tank"` only.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub container: Option<Container>,
+    /// The container's velocity `[ux, uy]` in units of its rim speed
+    /// (`[0, 0]` by default): `case = "rotating-tank"` only.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub drift: Option<Vec<f64>>,
     /// The scene's parts: `case = "custom"` only (see [`custom`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub scene: Option<custom::Parts>,
@@ -299,6 +306,7 @@ impl Settings {
             solid_fraction: None,
             gravity_ramp: None,
             container: None,
+            drift: None,
             scene: None,
         }
     }
@@ -498,20 +506,29 @@ impl Settings {
                 "must be finite and at least 0 (0: no ramp)",
             )?;
         }
-        for (key, set, case) in [
+        for (key, set, cases) in [
             (
                 "solid_fraction",
                 self.solid_fraction.is_some(),
-                "cylinder-array",
+                &["cylinder-array"][..],
             ),
-            ("container", self.container.is_some(), "closed-tank"),
-            ("gravity_ramp", self.gravity_ramp.is_some(), "hydrostatic"),
+            (
+                "container",
+                self.container.is_some(),
+                &["closed-tank", "rotating-tank"][..],
+            ),
+            ("drift", self.drift.is_some(), &["rotating-tank"][..]),
+            (
+                "gravity_ramp",
+                self.gravity_ramp.is_some(),
+                &["hydrostatic"][..],
+            ),
         ] {
-            if set && self.case != case {
+            if set && !cases.contains(&self.case.as_str()) {
                 return Err(Error::config(
                     key,
                     &self.case,
-                    format!("belongs to case = \"{case}\" only"),
+                    format!("belongs to case = \"{}\" only", cases.join("\" or \"")),
                 ));
             }
         }
