@@ -302,6 +302,7 @@ fn scene_files_name_a_case_and_reject_unknown_keys() {
         "tilted-channel",
         "cylinder-array",
         "closed-tank",
+        "rotating-tank",
         "hydrostatic",
         "dam-break",
         "lid-driven-cavity",
