@@ -153,7 +153,7 @@ named_enum!(
         /// fluid near them (Adami, Hu & Adams 2012; `docs/physics.md`
         /// 5.3): their repulsion does not vanish as a particle reaches the
         /// wall, which a free-surface flow driven at a wall needs, and
-        /// they fill concave corners and thin solids of shaped walls.
+        /// they fill the concave corners of shaped walls.
         Particles => "particles",
     }
 );
