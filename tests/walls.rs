@@ -519,19 +519,17 @@ fn a_shape_moving_in_a_custom_scene_carries_its_fluid() {
     assert!(e.contains("scene.shapes[0].moves"), "{e}");
 }
 
-/// A custom scene: a plate `thickness` thick (0.2 to 0.8 along x, centred
-/// at y = 0.5) in a box periodic both ways, fluid on both sides, falling
-/// past it under a body force; 20 across (dx = 0.05, cubic support 0.13).
-fn plate(thickness: f64, wall_boundary: &str) -> String {
-    let (lo, hi) = (0.5 - 0.5 * thickness, 0.5 + 0.5 * thickness);
+/// A custom scene at 20 across (dx = 0.05, cubic support 0.13) in a unit
+/// box periodic both ways, the fluid at rest and driven along y by a body
+/// force of 4: `settings` are the top-level keys above `[scene]`, `shapes`
+/// the `[[scene.shapes]]` tables.
+fn periodic_driven_scene(settings: &str, shapes: &str) -> String {
     format!(
         r#"
 case = "custom"
 resolution = 20
 re = 1.0
-t_end = 0.02
-output_interval = 0.02
-wall_boundary = "{wall_boundary}"
+{settings}
 
 [scene]
 origin = [0.0, 0.0]
@@ -543,11 +541,27 @@ length_scale = 1.0
 body_force = [0.0, 4.0]
 velocity = {{ profile = "rest" }}
 
-[[scene.shapes]]
+{shapes}
+"#
+    )
+}
+
+/// A plate `thickness` thick (0.2 to 0.8 along x, centred at y = 0.5),
+/// fluid on both sides, falling past it.
+fn plate(thickness: f64, wall_boundary: &str) -> String {
+    let (lo, hi) = (0.5 - 0.5 * thickness, 0.5 + 0.5 * thickness);
+    periodic_driven_scene(
+        &format!(
+            r#"t_end = 0.02
+output_interval = 0.02
+wall_boundary = "{wall_boundary}""#
+        ),
+        &format!(
+            r#"[[scene.shapes]]
 kind = "polygon"
 vertices = [[0.2, {lo}], [0.8, {lo}], [0.8, {hi}], [0.2, {hi}]]
-fluid_inside = false
-"#
+fluid_inside = false"#
+        ),
     )
 }
 
@@ -581,29 +595,15 @@ fn a_solid_thinner_than_the_support_is_refused() {
     }
 }
 
-/// A custom scene: two cylinders of radius 0.2 at (0.25, 0.5) and
-/// (0.75, 0.5) in a box periodic both ways, so that the fluid between them
-/// passes through gaps 0.1 wide (2 dx at 20 across), narrower than the
-/// cubic kernel's support (2.6 dx), driven along y by a body force.
-const NARROW_GAPS: &str = r#"
-case = "custom"
-resolution = 20
-re = 1.0
-t_end = 2.0
+/// Two cylinders of radius 0.2 at (0.25, 0.5) and (0.75, 0.5) in the
+/// periodic box, so that the fluid between them passes through gaps 0.1
+/// wide (2 dx), narrower than the cubic kernel's support (2.6 dx).
+fn narrow_gaps() -> String {
+    periodic_driven_scene(
+        r#"t_end = 2.0
 output_interval = 0.5
-regularise = "shifting"
-
-[scene]
-origin = [0.0, 0.0]
-extent = [1.0, 1.0]
-periodic = ["x", "y"]
-rho0 = 1.0
-velocity_scale = 1.0
-length_scale = 1.0
-body_force = [0.0, 4.0]
-velocity = { profile = "rest" }
-
-[[scene.shapes]]
+regularise = "shifting""#,
+        r#"[[scene.shapes]]
 kind = "circle"
 center = [0.25, 0.5]
 radius = 0.2
@@ -611,8 +611,9 @@ radius = 0.2
 [[scene.shapes]]
 kind = "circle"
 center = [0.75, 0.5]
-radius = 0.2
-"#;
+radius = 0.2"#,
+    )
+}
 
 #[test]
 fn walls_closer_than_a_support_keep_their_fluid() {
@@ -626,7 +627,7 @@ fn walls_closer_than_a_support_keep_their_fluid() {
         ("mirror", WallBoundary::Mirror),
         ("particles", WallBoundary::Particles),
     ] {
-        let mut s = Settings::from_toml(NARROW_GAPS).unwrap();
+        let mut s = Settings::from_toml(&narrow_gaps()).unwrap();
         s.wall_boundary = method;
         s.threads = 2;
         let dx = 1.0 / s.resolution as f64;
