@@ -721,6 +721,18 @@ struct BenchArgs {
     /// Start from a random particle order (what cell reordering is for).
     #[arg(long)]
     shuffle: bool,
+    /// Physics of the box scenes: default (f64, summation density, cubic,
+    /// Morris: a density pass and a force pass) or fast (continuity density
+    /// in the force pass: one neighbour pass per step; same kernel, support
+    /// and neighbours) [default: default].
+    #[arg(
+        long,
+        value_name = "NAME",
+        default_value = "default",
+        hide_default_value = true,
+        value_parser = bench::Preset::parse
+    )]
+    preset: bench::Preset,
     /// Time N = 1e3, 1e4, 1e5, 1e6 (or the sizes of --sizes) and fit the slope of time per step.
     #[arg(long)]
     sweep: bool,
@@ -788,11 +800,20 @@ fn run_bench(args: &BenchArgs) -> Result<()> {
             "scene",
             &args.scene,
             "takes no case settings (--resolution, --dim, --density, ...): they apply to \
-             case scenes; the box scenes take --n",
+             case scenes; the box scenes take --n and --preset",
+        ));
+    }
+    if scene == bench::Scene::Couette && args.preset != bench::Preset::Default {
+        return Err(sph_std::error::Error::config(
+            "preset",
+            args.preset.name(),
+            "applies to the box scenes (box2d, box3d); the couette scene runs the validation \
+             case's physics",
         ));
     }
     let config = bench::BenchConfig {
         scene,
+        preset: args.preset,
         n: args.n.unwrap_or(40_000),
         threads: sane_threads(args.threads),
         steps: args.steps,
@@ -841,6 +862,14 @@ fn run_bench(args: &BenchArgs) -> Result<()> {
 }
 
 fn run_case_bench(args: &BenchArgs) -> Result<()> {
+    if args.preset != bench::Preset::Default {
+        return Err(sph_std::error::Error::config(
+            "preset",
+            args.preset.name(),
+            "applies to the box scenes (box2d, box3d); a case scene takes its physics from \
+             its settings (--density, --precision, --kernel, ...)",
+        ));
+    }
     let settings = args.case_settings()?;
     if args.json {
         json_mode();
@@ -857,8 +886,12 @@ fn run_case_bench(args: &BenchArgs) -> Result<()> {
 /// Prints a benchmark's report (and its JSON with `json`).
 fn print_bench(report: &bench::BenchReport, json: bool) -> Result<()> {
     outln!(
-        "{} scene: {} particles, {} thread(s), {} steps in {:.3} s",
+        "{} scene, preset {} ({}, {} density, {} kernel): {} particles, {} thread(s), {} steps in {:.3} s",
         report.scene,
+        report.preset,
+        report.precision,
+        report.density,
+        report.kernel,
         report.n,
         report.threads,
         report.steps,

@@ -782,9 +782,32 @@ fn benchmark_edge_cases_are_clear_errors_or_work() {
         let (code, err) = status_and_error(args);
         assert_eq!(code, Some(0), "{args:?}: {err}");
     }
-    // A NaN skin without lists, a sweep of one size: refused, not NaN output.
+    // The fast preset runs its one pass (continuity density in the force
+    // pass) and says so; it applies to the box scenes only.
+    let result = sph()
+        .args([
+            "bench", "--preset", "fast", "--n", "36", "--steps", "2", "--warmup", "1", "--json",
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(result.status.code(), Some(0));
+    let report: serde_json::Value = serde_json::from_slice(&result.stdout).unwrap();
+    assert_eq!(report["preset"], "fast");
+    assert_eq!(report["density"], "continuity");
+    assert_eq!(report["passes_per_step"], 1);
+    // A preset off the box scenes or unknown, a NaN skin without lists, a
+    // sweep of one size: refused, not NaN output.
     for (args, key) in [
-        (&["bench", "--no-lists", "--skin", "NaN"][..], "`skin`"),
+        (
+            &["bench", "--preset", "fast", "--scene", "couette"][..],
+            "`preset`",
+        ),
+        (
+            &["bench", "--preset", "fast", "--scene", "taylor-green"],
+            "`preset`",
+        ),
+        (&["bench", "--preset", "turbo"], "preset"),
+        (&["bench", "--no-lists", "--skin", "NaN"], "`skin`"),
         (&["bench", "--sweep", "--sizes", "100"], "`sizes`"),
         (&["bench", "--sweep", "--sizes", "100,100"], "`sizes`"),
     ] {

@@ -26,8 +26,8 @@ use sph_core::exec::{Executor, Serial};
 use sph_core::kernel::CubicSpline;
 use sph_core::math::Libm;
 use sph_core::prelude::{
-    Domain, Eos, MorrisViscosity, Params, PressureGradient, Side, Solver, Space, SummationDensity,
-    Term, Vector, VectorOps, Wall, D2, D3,
+    Continuity, Domain, Eos, MorrisViscosity, Params, PressureGradient, Side, Solver, Space,
+    SummationDensity, Term, Vector, VectorOps, Wall, D2, D3,
 };
 
 use crate::cases::Settings;
@@ -72,11 +72,68 @@ impl Scene {
     }
 }
 
+/// The physics configuration a box scene is timed in.
+///
+/// Both presets keep the kernel (cubic spline), its support and `beta`, so
+/// the neighbour count is the same: a preset changes how much work each
+/// pair costs, not how many pairs there are.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Preset {
+    /// f64, summation density (a density pass, then a force pass), cubic
+    /// spline, symmetric pressure gradient, Morris viscosity: the
+    /// configuration of the validation cases.
+    #[default]
+    Default,
+    /// f64, continuity density (the density rate joins the force pass: one
+    /// neighbour pass per step), cubic spline, symmetric pressure gradient,
+    /// Morris viscosity, no density diffusion: the configuration a user
+    /// would pick for speed. Measured so far (ARCHITECTURE.md), it runs at
+    /// the default's rate: the density pass it saves is spent again in the
+    /// force pass, which must test every list entry against the support
+    /// (summation density's pass sorts each row's entries inside the
+    /// support to the front, so its force pass skips that test).
+    Fast,
+}
+
+impl Preset {
+    /// Parses a preset name.
+    ///
+    /// # Errors
+    /// A message listing the accepted names.
+    pub fn parse(s: &str) -> std::result::Result<Self, String> {
+        match s {
+            "default" => Ok(Preset::Default),
+            "fast" => Ok(Preset::Fast),
+            _ => Err("expected one of default, fast".into()),
+        }
+    }
+
+    /// The preset's name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Preset::Default => "default",
+            Preset::Fast => "fast",
+        }
+    }
+
+    /// The density mode the preset runs.
+    pub fn density(self) -> &'static str {
+        match self {
+            Preset::Default => "summation",
+            Preset::Fast => "continuity",
+        }
+    }
+}
+
 /// What to run.
 #[derive(Clone, Copy, Debug)]
 pub struct BenchConfig {
     /// Scene.
     pub scene: Scene,
+    /// Physics configuration of the box scenes (the Couette scene always
+    /// runs the default).
+    pub preset: Preset,
     /// Approximate number of fluid particles (rounded to a lattice).
     pub n: usize,
     /// Threads (1 = serial executor, no rayon).
@@ -101,6 +158,14 @@ pub struct BenchConfig {
 pub struct BenchReport {
     /// Scene name.
     pub scene: &'static str,
+    /// Preset name (`default` for case scenes, which run their own settings).
+    pub preset: &'static str,
+    /// Floating-point precision of the state and the pair arithmetic.
+    pub precision: &'static str,
+    /// Density mode.
+    pub density: &'static str,
+    /// Smoothing kernel.
+    pub kernel: &'static str,
     /// Fluid particles.
     pub n: usize,
     /// Threads.
@@ -296,6 +361,10 @@ where
     let pairs = particle_steps * neighbours_mean * passes as f64;
     Ok(BenchReport {
         scene: cfg.scene.name(),
+        preset: cfg.preset.name(),
+        precision: "f64",
+        density: if D::EMPTY { "continuity" } else { "summation" },
+        kernel: "cubic",
         n,
         threads: 1,
         steps: cfg.steps,
@@ -448,14 +517,29 @@ where
     /// # Errors
     /// Core errors from the set-up.
     pub fn solver<E: Executor>(&mut self, exec: &E) -> Result<BoxSolver<'_, S>> {
+        self.solver_with(exec, SummationDensity, box_forces())
+    }
+
+    /// A solver over the scene's buffers with other density and force
+    /// groups (continuity density puts `Continuity` in the force group and
+    /// `()` as the density group).
+    ///
+    /// # Errors
+    /// Core errors from the set-up.
+    pub fn solver_with<E: Executor, D: Term<S>, T: Term<S>>(
+        &mut self,
+        exec: &E,
+        density: D,
+        forces: T,
+    ) -> Result<Solver<'_, S, CubicSpline, Libm, D, T>> {
         Ok(Solver::new_with(
             exec,
             self.params,
             self.domain,
             self.buffers.storage(),
             self.n,
-            SummationDensity,
-            box_forces(),
+            density,
+            forces,
         )?)
     }
 }
@@ -475,8 +559,17 @@ where
     };
     let mut scene = box_scene::<S>(cfg.n, options)?;
     let bytes = scene.buffers.bytes() as f64 / scene.n as f64;
-    let mut solver = scene.solver(exec)?;
-    timed(cfg, exec, &mut solver, bytes)
+    match cfg.preset {
+        Preset::Default => {
+            let mut solver = scene.solver(exec)?;
+            timed(cfg, exec, &mut solver, bytes)
+        }
+        Preset::Fast => {
+            let (pressure, viscosity) = box_forces();
+            let mut solver = scene.solver_with(exec, (), (Continuity, pressure, viscosity))?;
+            timed(cfg, exec, &mut solver, bytes)
+        }
+    }
 }
 
 fn couette<E: Executor>(cfg: &BenchConfig, exec: &E) -> Result<BenchReport> {
@@ -731,6 +824,10 @@ pub fn run_case(bench: &CaseBench) -> Result<BenchReport> {
     let pairs = particle_steps * neighbours_mean * passes as f64;
     Ok(BenchReport {
         scene: crate::cases::find(&settings.case)?.name,
+        preset: Preset::Default.name(),
+        precision: settings.precision.name(),
+        density: settings.density.name(),
+        kernel: settings.kernel.name(),
         n: record.n_fluid,
         threads: record.threads,
         steps: bench.steps,
