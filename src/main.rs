@@ -792,7 +792,18 @@ impl BenchArgs {
 }
 
 fn run_bench(args: &BenchArgs) -> Result<()> {
-    let Ok(scene) = bench::Scene::parse(&args.scene) else {
+    let scene = bench::Scene::parse(&args.scene).ok();
+    if args.preset != bench::Preset::Default
+        && !matches!(scene, Some(bench::Scene::Box2d | bench::Scene::Box3d))
+    {
+        return Err(sph_std::error::Error::config(
+            "preset",
+            args.preset.name(),
+            "applies to the box scenes (box2d, box3d); the couette scene and case scenes \
+             take their physics from their own settings (--density, --precision, --kernel, ...)",
+        ));
+    }
+    let Some(scene) = scene else {
         return run_case_bench(args);
     };
     if args.scene_settings != SceneOverrides::default() {
@@ -801,14 +812,6 @@ fn run_bench(args: &BenchArgs) -> Result<()> {
             &args.scene,
             "takes no case settings (--resolution, --dim, --density, ...): they apply to \
              case scenes; the box scenes take --n and --preset",
-        ));
-    }
-    if scene == bench::Scene::Couette && args.preset != bench::Preset::Default {
-        return Err(sph_std::error::Error::config(
-            "preset",
-            args.preset.name(),
-            "applies to the box scenes (box2d, box3d); the couette scene runs the validation \
-             case's physics",
         ));
     }
     let config = bench::BenchConfig {
@@ -862,14 +865,6 @@ fn run_bench(args: &BenchArgs) -> Result<()> {
 }
 
 fn run_case_bench(args: &BenchArgs) -> Result<()> {
-    if args.preset != bench::Preset::Default {
-        return Err(sph_std::error::Error::config(
-            "preset",
-            args.preset.name(),
-            "applies to the box scenes (box2d, box3d); a case scene takes its physics from \
-             its settings (--density, --precision, --kernel, ...)",
-        ));
-    }
     let settings = args.case_settings()?;
     if args.json {
         json_mode();

@@ -116,14 +116,6 @@ impl Preset {
             Preset::Fast => "fast",
         }
     }
-
-    /// The density mode the preset runs.
-    pub fn density(self) -> &'static str {
-        match self {
-            Preset::Default => "summation",
-            Preset::Fast => "continuity",
-        }
-    }
 }
 
 /// What to run.
