@@ -880,6 +880,7 @@ mod tests {
     }
 
     #[test]
+    #[cfg(feature = "wall-particles")]
     fn wall_particles_fill_a_shell_of_the_support_radius_around_the_box() {
         // A closed 1 x 1 box, spacing 0.1, radius 0.25: two layers (0.05
         // and 0.15 deep) along each of the four sides, 10 points along
@@ -958,6 +959,7 @@ mod tests {
     }
 
     #[test]
+    #[cfg(all(feature = "shaped-walls", feature = "wall-particles"))]
     fn a_moving_bodys_wall_particles_travel_with_it() {
         use crate::shape::{Shape, ShapedWall};
         // A square container of side 0.5 in a unit box, turning about the
@@ -1022,6 +1024,7 @@ mod tests {
     }
 
     #[test]
+    #[cfg(all(feature = "shaped-walls", feature = "wall-particles"))]
     fn wall_particles_fill_the_solid_of_a_shaped_wall_within_the_radius() {
         use crate::shape::{Shape, ShapedWall};
         // A unit box (periodic both ways) with an L-shaped solid in its
@@ -1107,6 +1110,7 @@ mod tests {
     }
 
     #[test]
+    #[cfg(feature = "shaped-walls")]
     fn image_offsets_are_the_depth_along_the_wall_normals() {
         let d = box_domain();
         let x = V2::new([0.1, 0.3]);

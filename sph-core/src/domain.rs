@@ -292,6 +292,13 @@ impl<S: Space> Domain<S> {
     /// ([`ShapedWall::validate`]); [`Error::CapacityExceeded`] beyond
     /// [`MAX_SHAPED_WALLS`].
     pub fn with_shaped_wall(mut self, wall: ShapedWall) -> Result<Self> {
+        if !cfg!(feature = "shaped-walls") {
+            return Err(Error::InvalidParameter {
+                name: "shaped_wall",
+                value: f64::NAN,
+                rule: "walls of any shape need sph-core's `shaped-walls` feature",
+            });
+        }
         wall.validate(S::DIM)?;
         if self.n_shaped >= MAX_SHAPED_WALLS {
             return Err(Error::CapacityExceeded {
@@ -350,6 +357,13 @@ impl<S: Space> Domain<S> {
     /// # Errors
     /// [`Error::InvalidParameter`] if the spacing is not positive and finite.
     pub fn with_wall_particles(mut self, spacing: S::Real) -> Result<Self> {
+        if !cfg!(feature = "wall-particles") {
+            return Err(Error::InvalidParameter {
+                name: "wall_spacing",
+                value: spacing.to_f64(),
+                rule: "wall particles need sph-core's `wall-particles` feature",
+            });
+        }
         if !(spacing.is_finite() && spacing > S::Real::ZERO) {
             return Err(Error::InvalidParameter {
                 name: "wall_spacing",
@@ -395,19 +409,36 @@ impl<S: Space> Domain<S> {
     /// ([`Self::with_wall_particles`]).
     #[inline]
     pub fn wall_particles(&self) -> Option<S::Real> {
-        self.wall_spacing
+        // A constant without the feature, so that the optimiser drops
+        // every wall-particle branch from a firmware that cannot use them.
+        if cfg!(feature = "wall-particles") {
+            self.wall_spacing
+        } else {
+            None
+        }
     }
 
-    /// Number of shaped walls.
+    /// Number of shaped walls (always 0 without the `shaped-walls`
+    /// feature).
     #[inline]
     pub fn shaped_count(&self) -> usize {
-        self.n_shaped
+        if cfg!(feature = "shaped-walls") {
+            self.n_shaped
+        } else {
+            0
+        }
+    }
+
+    /// The shaped walls in use, in order.
+    #[inline]
+    fn shaped_in_use(&self) -> &[Option<ShapedWall>] {
+        &self.shaped[..self.shaped_count()]
     }
 
     /// The shaped wall with index `i`, if there is one.
     #[inline]
     pub fn shaped_wall(&self, i: usize) -> Option<&ShapedWall> {
-        self.shaped.get(i).and_then(Option::as_ref)
+        self.shaped_in_use().get(i).and_then(Option::as_ref)
     }
 
     /// How far a fluid particle may lie behind a shaped wall's surface
@@ -425,12 +456,12 @@ impl<S: Space> Domain<S> {
     /// The first shaped wall that `x` lies behind by more than
     /// [`Self::wall_tolerance`], with its signed distance.
     pub fn behind_wall(&self, x: S::Vector) -> Option<(usize, f64)> {
-        if self.n_shaped == 0 {
+        if self.shaped_count() == 0 {
             return None;
         }
         let p = widen::<S>(x);
         let tolerance = self.wall_tolerance();
-        for (i, w) in self.shaped[..self.n_shaped].iter().enumerate() {
+        for (i, w) in self.shaped_in_use().iter().enumerate() {
             if let Some(w) = w {
                 let (d, _) = w.shape.distance(p, S::DIM);
                 if !(d >= -tolerance) {
@@ -447,11 +478,12 @@ impl<S: Space> Domain<S> {
     /// # Errors
     /// [`Error::InvalidParameter`] naming the wall's axis.
     pub fn validate(&self) -> Result<()> {
-        let curved = self.shaped[..self.n_shaped]
+        let curved = self
+            .shaped_in_use()
             .iter()
             .flatten()
             .any(|w| w.curvature != [0.0; 3]);
-        if self.wall_spacing.is_some() && curved {
+        if self.wall_particles().is_some() && curved {
             return Err(Error::InvalidParameter {
                 name: "wall.curvature",
                 value: f64::NAN,
@@ -461,7 +493,7 @@ impl<S: Space> Domain<S> {
         }
         for a in 0..S::DIM {
             for w in self.walls[a].iter().flatten() {
-                if self.wall_spacing.is_some()
+                if self.wall_particles().is_some()
                     && (w.reflection == Reflection::Point || w.curvature != S::Vector::zero())
                 {
                     return Err(Error::InvalidParameter {
@@ -500,7 +532,7 @@ impl<S: Space> Domain<S> {
         }
         let diagonal = crate::math::f64s::sqrt(diagonal);
         let mut fastest = 0.0f64;
-        for w in self.shaped[..self.n_shaped].iter().flatten() {
+        for w in self.shaped_in_use().iter().flatten() {
             let mut r = 0.0;
             for (a, m) in mid.iter().enumerate() {
                 r += (w.center[a] - m) * (w.center[a] - m);
@@ -516,7 +548,8 @@ impl<S: Space> Domain<S> {
     /// ([`ShapedWall::set_time`]: not wrapped; a body's shape is not
     /// periodic, so it must stay inside the box).
     pub fn set_wall_time(&mut self, t: f64) {
-        for w in self.shaped[..self.n_shaped].iter_mut().flatten() {
+        let n = self.shaped_count();
+        for w in self.shaped[..n].iter_mut().flatten() {
             w.set_time(t);
         }
         for a in 0..S::DIM {
@@ -685,5 +718,38 @@ mod tests {
             .is_err());
         assert!(strip().with_wall(0, Side::Lower, Wall::no_slip()).is_err());
         assert!(strip().with_periodic(1).is_err());
+    }
+
+    #[test]
+    fn walls_a_build_leaves_out_are_refused_by_name() {
+        let ball = ShapedWall::new(crate::shape::Shape::Ball {
+            center: [0.5, 1.0, 0.0],
+            radius: 0.25,
+            fluid_inside: false,
+        });
+        let shaped = strip().with_shaped_wall(ball);
+        let particles = strip().with_wall_particles(0.05);
+        if cfg!(feature = "shaped-walls") {
+            assert_eq!(shaped.unwrap().shaped_count(), 1);
+        } else {
+            assert!(matches!(
+                shaped,
+                Err(Error::InvalidParameter {
+                    name: "shaped_wall",
+                    ..
+                })
+            ));
+        }
+        if cfg!(feature = "wall-particles") {
+            assert_eq!(particles.unwrap().wall_particles(), Some(0.05));
+        } else {
+            assert!(matches!(
+                particles,
+                Err(Error::InvalidParameter {
+                    name: "wall_spacing",
+                    ..
+                })
+            ));
+        }
     }
 }

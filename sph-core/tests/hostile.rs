@@ -361,6 +361,7 @@ fn an_untouched_resumed_state_continues_bit_for_bit() {
 }
 
 #[test]
+#[cfg(feature = "shaped-walls")]
 fn shaped_walls_check_their_description_and_the_particles_behind_them() {
     let ball = |r: f64| {
         ShapedWall::new(Shape::Ball {
