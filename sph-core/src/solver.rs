@@ -526,20 +526,28 @@ impl<S: Space, K: Kernel, M: Math<S::Real>> Pass<'_, S, K, M> {
             row[e] = if take { b } else { a };
             inside += usize::from(take);
         }
-        for &entry in &row[..inside] {
-            let (j, r_ij) = self.separation(&f, xi, entry);
-            self.visit::<T, false>(
-                &f,
-                terms,
-                &d,
-                (&mut acc, &mut scratch),
-                j,
-                r_ij,
-                r_ij.norm2(),
-            );
-        }
+        self.visit_entries::<T, false>(&f, terms, &d, (&mut acc, &mut scratch), xi, &row[..inside]);
         terms.finish(self.consts, &d, &scratch, &mut acc);
         (acc, inside)
+    }
+
+    /// Visits the list entries `entries` of destination `d` (every one
+    /// inside the support), in order.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn visit_entries<T: Term<S>, const VISCOUS_ONLY: bool>(
+        &self,
+        f: &Fields<'_, S>,
+        terms: &T,
+        d: &Dest<S>,
+        (acc, scratch): (&mut Acc<S>, &mut T::Scratch),
+        xi: S::Vector,
+        entries: &[u32],
+    ) {
+        for &entry in entries {
+            let (j, r_ij) = self.separation(f, xi, entry);
+            self.visit::<T, VISCOUS_ONLY>(f, terms, d, (acc, scratch), j, r_ij, r_ij.norm2());
+        }
     }
 
     /// One pair: the shared pair quantities, then every term of the group.
@@ -640,18 +648,14 @@ impl<S: Space, K: Kernel, M: Math<S::Real>> Pass<'_, S, K, M> {
                 if partitioned {
                     // Positions have not moved since the density pass sorted these in.
                     let inside = ((word >> 16) as usize).min(used);
-                    for &entry in &row[..inside] {
-                        let (j, r_ij) = self.separation(&f, xi, entry);
-                        self.visit::<T, VISCOUS_ONLY>(
-                            &f,
-                            terms,
-                            &d,
-                            (&mut acc, &mut scratch),
-                            j,
-                            r_ij,
-                            r_ij.norm2(),
-                        );
-                    }
+                    self.visit_entries::<T, VISCOUS_ONLY>(
+                        &f,
+                        terms,
+                        &d,
+                        (&mut acc, &mut scratch),
+                        xi,
+                        &row[..inside],
+                    );
                 } else {
                     // No pass has sorted the row (continuity density): the
                     // entries inside the support are gathered a chunk at a
@@ -669,18 +673,14 @@ impl<S: Space, K: Kernel, M: Math<S::Real>> Pass<'_, S, K, M> {
                             inside[k & (GATHER - 1)] = entry;
                             k += usize::from(r_ij.norm2() < radius2);
                         }
-                        for &entry in &inside[..k] {
-                            let (j, r_ij) = self.separation(&f, xi, entry);
-                            self.visit::<T, VISCOUS_ONLY>(
-                                &f,
-                                terms,
-                                &d,
-                                (&mut acc, &mut scratch),
-                                j,
-                                r_ij,
-                                r_ij.norm2(),
-                            );
-                        }
+                        self.visit_entries::<T, VISCOUS_ONLY>(
+                            &f,
+                            terms,
+                            &d,
+                            (&mut acc, &mut scratch),
+                            xi,
+                            &inside[..k],
+                        );
                     }
                 }
             }
