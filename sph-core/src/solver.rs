@@ -367,6 +367,40 @@ type KickParts<'s, S> = (
     &'s mut [<S as Space>::Real],
 );
 
+/// The fluid's state between steps, writable ([`Solver::fluid_mut`]): every
+/// slice holds the `n_fluid` fluid particles.
+#[derive(Debug)]
+pub struct FluidMut<'s, S: Space> {
+    /// Positions (local coordinates).
+    pub x: &'s mut [S::Vector],
+    /// Velocities.
+    pub v: &'s mut [S::Vector],
+    /// Densities.
+    pub rho: &'s mut [S::Real],
+    /// Pressures.
+    pub p: &'s mut [S::Real],
+    /// Pass velocities `v*` of the last evaluation.
+    pub ve: &'s mut [S::Vector],
+    /// Accelerations of the last evaluation.
+    pub dv: &'s mut [S::Vector],
+    /// Density rates of the last evaluation.
+    pub drho: &'s mut [S::Real],
+    /// Summed density (summation) or half-step density (continuity).
+    pub rho_aux: &'s mut [S::Real],
+    /// Shifting velocities (empty unless the force group shifts).
+    pub shift: &'s mut [S::Vector],
+}
+
+/// The transport velocity of the drift: the half-kicked velocity `v + a
+/// dt/2`, plus the shifting velocity where the force group shifts. One
+/// function for the drift and for [`Solver::drift_speed2`], so the bound a
+/// caller computes is bitwise the drift's own.
+#[inline(always)]
+fn transport<V: VectorOps<R>, R: Real>(v: V, a: V, half: R, shift: Option<V>) -> (V, V) {
+    let vh = v + a * half;
+    (vh, shift.map_or(vh, |u| vh + u))
+}
+
 /// Per-particle arrays of the storage (everything but the cell list).
 #[derive(Debug)]
 struct Arrays<'a, S: Space> {
@@ -1882,14 +1916,119 @@ where
         }
         self.density.validate()?;
         self.forces.validate()?;
-        let result = self.advance(exec, dt);
+        let result = self.advance(exec, dt, S::Real::ZERO);
         if let Err(e) = result {
             self.failed = Some(e);
         }
         result
     }
 
-    fn advance<E: Executor>(&mut self, exec: &E, dt: f64) -> Result<()> {
+    /// Advances one step like [`Self::step_with`], with the Verlet travel
+    /// counted from the larger of this solver's fastest transport speed
+    /// (squared) and `drift2`: a caller that runs one scene as several
+    /// solvers, each holding part of the particles, passes the largest
+    /// [`Self::drift_speed2`] of them all, so that every part rebuilds its
+    /// lists at the steps a single solver would.
+    ///
+    /// # Errors
+    /// As [`Self::step_with`]; [`Error::InvalidParameter`] for a negative or
+    /// non-finite `drift2`.
+    pub fn step_bounded_with<E: Executor>(
+        &mut self,
+        exec: &E,
+        dt: f64,
+        drift2: S::Real,
+    ) -> Result<()> {
+        if !(drift2.is_finite() && drift2 >= S::Real::ZERO) {
+            return Err(Error::InvalidParameter {
+                name: "drift2",
+                value: drift2.to_f64(),
+                rule: "the squared drift speed bound must be finite and not negative",
+            });
+        }
+        if let Some(e) = self.failed {
+            return Err(e);
+        }
+        if !(dt > 0.0 && dt.is_finite()) {
+            return Err(Error::InvalidParameter {
+                name: "dt",
+                value: dt,
+                rule: "time step must be positive and finite",
+            });
+        }
+        self.density.validate()?;
+        self.forces.validate()?;
+        let result = self.advance(exec, dt, drift2);
+        if let Err(e) = result {
+            self.failed = Some(e);
+        }
+        result
+    }
+
+    /// The largest squared transport speed the next step of `dt` seconds
+    /// will drift a fluid particle with (bitwise the drift's own figure).
+    pub fn drift_speed2(&self, dt: f64) -> S::Real {
+        let half = S::Real::from_f64(0.5 * dt);
+        let n = self.n;
+        let shifting = T::SHIFTS;
+        let mut fastest = S::Real::ZERO;
+        for i in 0..n {
+            let shift = if shifting {
+                Some(self.a.shift[i])
+            } else {
+                None
+            };
+            let (_, vt) = transport(self.a.v[i], self.a.dv[i], half, shift);
+            fastest = fastest.max(vt.norm2());
+        }
+        fastest
+    }
+
+    /// The travel since the last list build after a step of `dt` seconds
+    /// at squared transport speed `drift2`.
+    fn travel_after(&self, dt: f64, drift2: S::Real) -> f64 {
+        // A point-reflected ghost also moves with twice its wall's
+        // speed, and so may the image through a moving body.
+        let walls = self.anchor_speed + self.domain.body_speed();
+        self.travel + (M::sqrt(drift2).to_f64() + 2.0 * walls) * dt
+    }
+
+    /// Whether the next step of `dt` seconds, at squared transport speed
+    /// `drift2` (at least [`Self::drift_speed2`]), rebuilds the neighbour
+    /// lists (always without lists: the cell list is rebuilt every step).
+    pub fn rebuilds_next(&self, dt: f64, drift2: S::Real) -> bool {
+        if !cfg!(feature = "neighbour-lists") || self.list_width == 0 {
+            return true;
+        }
+        let margin = (self.list_radius - self.kernel.radius()).to_f64();
+        !(self.lists_fresh && 2.0 * self.travel_after(dt, drift2) < margin)
+    }
+
+    /// The fluid's state, writable between steps.
+    ///
+    /// For a caller that keeps some particles equal to those of another
+    /// run of the same scene (the copies a distributed run holds of its
+    /// neighbours' particles): the lists, ghosts and cells are not rebuilt,
+    /// so what is written must be the state that run has at this step.
+    /// Anything else leaves the lists unspecified: build a new solver
+    /// instead ([`Self::resume_with`] with `lists_fresh` false).
+    pub fn fluid_mut(&mut self) -> FluidMut<'_, S> {
+        let n = self.n;
+        let shifts = if T::SHIFTS { n } else { 0 };
+        FluidMut {
+            x: &mut self.a.x[..n],
+            v: &mut self.a.v[..n],
+            rho: &mut self.a.rho[..n],
+            p: &mut self.a.p[..n],
+            ve: &mut self.a.ve[..n],
+            dv: &mut self.a.dv[..n],
+            drho: &mut self.a.drho[..n],
+            rho_aux: &mut self.a.rho_aux[..n],
+            shift: &mut self.a.shift[..shifts],
+        }
+    }
+
+    fn advance<E: Executor>(&mut self, exec: &E, dt: f64, bound: S::Real) -> Result<()> {
         let n = self.n;
         let step = self.step + 1;
         let dtf = S::Real::from_f64(dt);
@@ -1928,11 +2067,11 @@ where
                     for k in 0..x.len() {
                         let i = start + k;
                         let a = dv[i];
-                        let vh = v[k] + a * half;
+                        // The transport velocity: with shifting, v + u_s.
+                        let u = if shifting { Some(shift[i]) } else { None };
+                        let (vh, vt) = transport(v[k], a, half, u);
                         v[k] = vh;
                         ve[k] = vh + a * half;
-                        // The transport velocity: with shifting, v + u_s.
-                        let vt = if shifting { vh + shift[i] } else { vh };
                         fastest = fastest.max(vt.norm2());
                         let xn = x[k] + vt * dtf;
                         if !xn.is_finite() {
@@ -1973,10 +2112,7 @@ where
             )?
         };
         if cfg!(feature = "neighbour-lists") && self.list_width > 0 {
-            // A point-reflected ghost also moves with twice its wall's
-            // speed, and so may the image through a moving body.
-            let walls = self.anchor_speed + self.domain.body_speed();
-            self.travel += (M::sqrt(drift2).to_f64() + 2.0 * walls) * dt;
+            self.travel = self.travel_after(dt, drift2.max(bound));
         }
         self.domain.set_wall_time(self.time + dt);
         self.evaluate(exec)?;

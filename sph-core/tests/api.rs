@@ -476,3 +476,52 @@ fn a_full_neighbour_row_is_an_error_naming_the_count() {
         other => panic!("expected a neighbour capacity error, got {other:?}"),
     }
 }
+
+#[test]
+fn a_step_bounded_by_its_own_drift_is_the_plain_step_and_rebuilds_are_predicted() {
+    // Two solvers on the same disordered channel: one steps plainly, the
+    // other with the bound a distributed run would pass (its own fastest
+    // drift here, the largest of the parts there). The drift bound is the
+    // drift's own figure, so the travel, the rebuilds and every bit agree,
+    // and `rebuilds_next` says beforehand which steps rebuild.
+    let (n, nx) = (16, 6);
+    let mut a = disordered_buffers(n, nx, 5).with_lists(48);
+    let mut b = disordered_buffers(n, nx, 5).with_lists(48);
+    let mut plain = disordered_channel(&mut a, n, nx);
+    let mut bounded = disordered_channel(&mut b, n, nx);
+    let dt = 0.5 * plain.limits().min();
+    let mut predicted = 0;
+    for _ in 0..200 {
+        let drift2 = bounded.drift_speed2(dt);
+        let rebuild = bounded.rebuilds_next(dt, drift2);
+        let before = bounded.neighbour_builds();
+        plain.step(dt).unwrap();
+        bounded.step_bounded_with(&Serial, dt, drift2).unwrap();
+        assert_eq!(bounded.neighbour_builds() != before, rebuild);
+        predicted += rebuild as u32;
+    }
+    assert!(predicted > 1, "the run must rebuild its lists");
+    for (p, q) in plain.positions().iter().zip(bounded.positions()) {
+        assert_eq!(p.0.map(f64::to_bits), q.0.map(f64::to_bits));
+    }
+    // A larger bound spends the skin sooner: more rebuilds, the same
+    // physics to round-off (the lists stay exact).
+    let mut c = disordered_buffers(n, nx, 5).with_lists(48);
+    let mut eager = disordered_channel(&mut c, n, nx);
+    for _ in 0..200 {
+        let drift2 = 4.0 * eager.drift_speed2(dt);
+        eager.step_bounded_with(&Serial, dt, drift2).unwrap();
+    }
+    assert!(eager.neighbour_builds() > bounded.neighbour_builds());
+    for (p, q) in plain.velocities().iter().zip(eager.velocities()) {
+        assert!(
+            (*p - *q).norm2().sqrt() <= 1e-10 * 0.01,
+            "{p:?} against {q:?}"
+        );
+    }
+    // A bound that is not a speed is refused by name.
+    assert!(matches!(
+        eager.step_bounded_with(&Serial, dt, f64::NAN),
+        Err(Error::InvalidParameter { name: "drift2", .. })
+    ));
+}
