@@ -20,6 +20,7 @@ pub mod cases;
 pub mod checkpoint;
 pub mod config;
 pub mod couette;
+pub mod distributed;
 pub mod driver;
 pub mod error;
 pub mod output;
