@@ -10,6 +10,7 @@ use sph_std::cases::{self, Settings};
 use sph_std::config::{
     CouetteConfig, DensityMode, KernelName, MathBackend, Precision, ViscosityForm,
 };
+use sph_std::distributed::Comm;
 use sph_std::error::Result;
 use sph_std::output::VtkEncoding;
 use sph_std::scene::{
@@ -175,6 +176,11 @@ struct RunArgs {
     /// No progress bar and no table.
     #[arg(long)]
     quiet: bool,
+    /// Run on the MPI ranks this process was started among (`mpirun -np N
+    /// sph run CASE --mpi`): the same particles and figures as one process,
+    /// written by rank 0. Needs a build with `--features mpi`.
+    #[arg(long)]
+    mpi: bool,
 }
 
 /// A scene file's settings (a name ending in .toml) or a built-in case's defaults.
@@ -365,7 +371,28 @@ fn run_scene(args: &RunArgs) -> Result<()> {
         checkpoint_every: args.checkpoint_every.unwrap_or(0.0),
         allow_long_run: args.allow_long_run,
     };
-    execute(&settings, &dir, args.overwrite, options, None, args.quiet)
+    if args.mpi {
+        return sph_std::distributed::with_mpi(|comm| {
+            execute(
+                &settings,
+                &dir,
+                args.overwrite,
+                options,
+                None,
+                args.quiet,
+                Some(comm),
+            )
+        })?;
+    }
+    execute(
+        &settings,
+        &dir,
+        args.overwrite,
+        options,
+        None,
+        args.quiet,
+        None,
+    )
 }
 
 fn resume_scene(args: &ResumeArgs) -> Result<()> {
@@ -391,7 +418,7 @@ fn resume_scene(args: &ResumeArgs) -> Result<()> {
     }
     settings.threads = sane_threads(settings.threads);
     let options = ck.options;
-    execute(&settings, dir, false, options, Some(&ck), args.quiet)
+    execute(&settings, dir, false, options, Some(&ck), args.quiet, None)
 }
 
 /// Runs a scene (from its start or from a checkpoint), publishing its
@@ -403,13 +430,18 @@ fn execute(
     options: checkpoint::Options,
     resume: Option<&checkpoint::Checkpoint>,
     quiet: bool,
+    ranks: Option<&(dyn Comm + Sync)>,
 ) -> Result<()> {
+    // On several ranks, rank 0 writes and reports.
+    let writer = ranks.is_none_or(|c| c.rank() == 0);
     let mut scene = cases::scene(settings)?;
     scene.allow_long_run = options.allow_long_run;
     // Refuse a directory before the work, not after it.
-    output::check_out_dir(dir, overwrite)?;
+    if writer {
+        output::check_out_dir(dir, overwrite)?;
+    }
     let case = cases::find(&settings.case)?;
-    let bar = progress::Bar::new(&settings.case, quiet);
+    let bar = progress::Bar::new(&settings.case, quiet || !writer);
     // Writes the set for a record (and its checkpoint, if any) into `dir`.
     let publish = |record: &RunRecord, ck: Option<&checkpoint::Checkpoint>| {
         output::in_dir(dir, overwrite, |stage| {
@@ -464,8 +496,12 @@ fn execute(
             on_checkpoint: &mut on_checkpoint,
             pause_after: None,
             refresh: false,
+            ranks,
         },
     )?;
+    if !writer {
+        return Ok(());
+    }
     let (reference, written) = publish(&record, record.checkpoint.as_deref())?;
     if HUMAN_TO_STDERR.load(Ordering::Relaxed) {
         json_out(&read_summary(dir)?);
@@ -483,6 +519,21 @@ fn execute(
             record.threads,
             record.wall_seconds
         );
+        if !record.rank_stats.is_empty() {
+            let r = &record.rank_stats;
+            let sum =
+                |f: &dyn Fn(&sph_std::distributed::RankStats) -> f64| r.iter().map(f).sum::<f64>();
+            let busy = sum(&|x| x.step_seconds);
+            let comm = sum(&|x| x.halo_seconds + x.reduce_seconds + x.migrate_seconds);
+            outln!(
+                "{} ranks: {:.0} owned and {:.0} halo particles per rank, {:.1} kB sent per rank and step, {:.0} % of the ranks' time outside their steps",
+                record.ranks,
+                sum(&|x| x.owned as f64) / r.len() as f64,
+                sum(&|x| x.halo as f64) / r.len() as f64,
+                sum(&|x| x.bytes_sent) / (r.len() as f64 * record.steps.max(1) as f64) / 1e3,
+                100.0 * comm / (busy + comm).max(f64::MIN_POSITIVE)
+            );
+        }
         outln!();
         outln!(
             "{:>10} {:>12} {:>11} {:>11} {:>9} {:>10} {:>10}",

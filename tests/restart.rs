@@ -42,6 +42,7 @@ fn run(
             on_checkpoint: &mut keep,
             pause_after: None,
             refresh: false,
+            ranks: None,
         },
     )
     .unwrap();
@@ -227,6 +228,7 @@ fn a_checkpoint_of_another_scene_is_refused_with_a_clear_error() {
             on_checkpoint: &mut none,
             pause_after: None,
             refresh: false,
+            ranks: None,
         },
     )
     .unwrap_err()

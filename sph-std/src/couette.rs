@@ -371,6 +371,7 @@ pub fn run_with(
             on_checkpoint: &mut |_, _| Ok(()),
             pause_after: None,
             refresh: false,
+            ranks: None,
         },
     )?;
     let profiles = record

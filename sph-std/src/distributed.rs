@@ -39,6 +39,7 @@
 
 use crate::driver::Buffers;
 use crate::error::{Error, Result};
+use crate::scene::Stopwatch;
 use sph_core::domain::Domain;
 use sph_core::exec::Executor;
 use sph_core::kernel::Kernel;
@@ -47,7 +48,7 @@ use sph_core::real::Real;
 use sph_core::solver::{Params, Resume, Solver};
 use sph_core::space::{Space, VectorOps};
 use sph_core::terms::Term;
-use std::sync::{Barrier, Mutex};
+use std::sync::{mpsc, Barrier, Mutex};
 
 /// The collective operations the engine needs; every rank calls them in the
 /// same sequence.
@@ -61,10 +62,28 @@ pub trait Comm {
     /// rank order.
     fn exchange(&self, out: Vec<Vec<f64>>) -> Vec<Vec<f64>>;
     /// The element-wise maximum over the ranks.
-    fn max(&self, values: &[f64]) -> Vec<f64>;
+    fn max(&self, values: &[f64]) -> Vec<f64> {
+        let all = self.exchange(vec![values.to_vec(); self.size()]);
+        let mut out = values.to_vec();
+        for v in &all {
+            for (o, x) in out.iter_mut().zip(v) {
+                *o = o.max(*x);
+            }
+        }
+        out
+    }
     /// The element-wise sum over the ranks, in rank order (the same bits on
-    /// every rank; exact for integers below 2^53).
-    fn sum(&self, values: &[f64]) -> Vec<f64>;
+    /// every rank, whatever the transport's own reduction order).
+    fn sum(&self, values: &[f64]) -> Vec<f64> {
+        let all = self.exchange(vec![values.to_vec(); self.size()]);
+        let mut out = vec![0.0; values.len()];
+        for v in &all {
+            for (o, x) in out.iter_mut().zip(v) {
+                *o += *x;
+            }
+        }
+        out
+    }
 }
 
 /// Ranks as threads of one process, meeting at a barrier.
@@ -136,27 +155,159 @@ impl Comm for Threads<'_> {
         self.board.barrier.wait();
         got
     }
+}
 
-    fn max(&self, values: &[f64]) -> Vec<f64> {
-        let all = self.exchange(vec![values.to_vec(); self.size()]);
-        let mut out = values.to_vec();
-        for v in &all {
-            for (o, x) in out.iter_mut().zip(v) {
-                *o = o.max(*x);
-            }
-        }
-        out
+/// Runs `f` with this process's MPI world as its [`Comm`] (MPI initialised
+/// here and finalised when `f` returns): every process that `mpirun`
+/// started calls it, and each gets its rank. `f` runs on a thread of its
+/// own; every MPI call is made on the calling thread ([`funnel`]).
+///
+/// # Errors
+/// [`Error::Config`] (key `mpi`) where this build lacks the `mpi` feature
+/// or MPI cannot be initialised (already initialised in this process).
+pub fn with_mpi<R: Send>(f: impl FnOnce(&(dyn Comm + Sync)) -> R + Send) -> Result<R> {
+    #[cfg(feature = "mpi")]
+    {
+        let universe = ::mpi::initialize().ok_or_else(|| {
+            Error::config("mpi", "on", "MPI is already initialised in this process")
+        })?;
+        let world = mpi_comm::World::new(universe.world());
+        funnel(&world, f)
+    }
+    #[cfg(not(feature = "mpi"))]
+    {
+        drop(f);
+        Err(Error::config(
+            "mpi",
+            "on",
+            "this sph was built without MPI; build it with `cargo build --release --features mpi` (needs an MPI implementation and libclang)",
+        ))
+    }
+}
+
+/// A request to the thread that owns the transport: the buffers to send
+/// and where the received ones go.
+type Request = (Vec<Vec<f64>>, mpsc::Sender<Vec<Vec<f64>>>);
+
+/// A [`Comm`] that any thread may hold: it forwards every exchange to the
+/// thread running [`funnel`].
+struct Relay {
+    rank: usize,
+    size: usize,
+    requests: mpsc::Sender<Request>,
+}
+
+impl Comm for Relay {
+    fn rank(&self) -> usize {
+        self.rank
     }
 
-    fn sum(&self, values: &[f64]) -> Vec<f64> {
-        let all = self.exchange(vec![values.to_vec(); self.size()]);
-        let mut out = vec![0.0; values.len()];
-        for v in &all {
-            for (o, x) in out.iter_mut().zip(v) {
-                *o += *x;
-            }
+    fn size(&self) -> usize {
+        self.size
+    }
+
+    fn exchange(&self, out: Vec<Vec<f64>>) -> Vec<Vec<f64>> {
+        let (reply, answer) = mpsc::channel();
+        // The serving thread outlives `f`, so neither end is gone here.
+        let _ = self.requests.send((out, reply));
+        answer.recv().unwrap_or_default()
+    }
+}
+
+/// Runs `f` on a new thread with a [`Comm`] that forwards every exchange to
+/// `inner` on this thread: for a transport that must stay on the thread
+/// that created it (MPI without thread support; a communicator handle that
+/// is not `Sync`), under code that moves work between threads (a rayon
+/// pool).
+///
+/// # Errors
+/// [`Error::Diverged`] if `f` panics.
+pub fn funnel<R: Send>(
+    inner: &dyn Comm,
+    f: impl FnOnce(&(dyn Comm + Sync)) -> R + Send,
+) -> Result<R> {
+    let (requests, served) = mpsc::channel::<Request>();
+    let relay = Relay {
+        rank: inner.rank(),
+        size: inner.size(),
+        requests,
+    };
+    std::thread::scope(|scope| {
+        let worker = scope.spawn(move || f(&relay));
+        // Ends when `f` returns and drops the relay.
+        for (out, reply) in served {
+            let _ = reply.send(inner.exchange(out));
         }
-        out
+        worker
+            .join()
+            .map_err(|_| Error::Diverged("the run's thread panicked".into()))
+    })
+}
+
+/// MPI ranks as a [`Comm`].
+#[cfg(feature = "mpi")]
+mod mpi_comm {
+    use super::Comm;
+    use ::mpi::datatype::{Partition, PartitionMut};
+    use ::mpi::topology::SimpleCommunicator;
+    use ::mpi::traits::{Communicator, CommunicatorCollectives};
+
+    /// A communicator's ranks.
+    pub struct World {
+        comm: SimpleCommunicator,
+    }
+
+    impl World {
+        pub fn new(comm: SimpleCommunicator) -> Self {
+            Self { comm }
+        }
+    }
+
+    /// Offsets of buffers of `counts` words laid back to back.
+    fn offsets(counts: &[i32]) -> Vec<i32> {
+        counts
+            .iter()
+            .scan(0i32, |at, &c| {
+                let here = *at;
+                *at += c;
+                Some(here)
+            })
+            .collect()
+    }
+
+    impl Comm for World {
+        fn rank(&self) -> usize {
+            self.comm.rank() as usize
+        }
+
+        fn size(&self) -> usize {
+            self.comm.size() as usize
+        }
+
+        fn exchange(&self, out: Vec<Vec<f64>>) -> Vec<Vec<f64>> {
+            let size = self.size();
+            // MPI counts are 32-bit: a buffer past 2^31 words (16 GiB) is
+            // beyond any halo this engine sends.
+            let counts: Vec<i32> = out
+                .iter()
+                .map(|b| i32::try_from(b.len()).unwrap_or(i32::MAX))
+                .collect();
+            let mut got = vec![0i32; size];
+            self.comm.all_to_all_into(&counts[..], &mut got[..]);
+            let (sent_at, got_at) = (offsets(&counts), offsets(&got));
+            let send: Vec<f64> = out.concat();
+            let mut recv = vec![0.0; got.iter().map(|&c| c as usize).sum()];
+            {
+                let outgoing = Partition::new(&send[..], &counts[..], &sent_at[..]);
+                let mut incoming = PartitionMut::new(&mut recv[..], &got[..], &got_at[..]);
+                self.comm.all_to_all_varcount_into(&outgoing, &mut incoming);
+            }
+            got_at
+                .iter()
+                .zip(&got)
+                .map(|(&at, &c)| recv[at as usize..(at + c) as usize].to_vec())
+                .collect()
+        }
     }
 }
 
@@ -234,7 +385,11 @@ fn push_record<S: Space>(
 }
 
 /// Writes record `r` into fluid slot `i` of a solver.
-fn write_record<S: Space>(f: &mut sph_core::solver::FluidMut<'_, S>, i: usize, r: &[f64]) {
+pub(crate) fn write_record<S: Space>(
+    f: &mut sph_core::solver::FluidMut<'_, S>,
+    i: usize,
+    r: &[f64],
+) {
     let d = S::DIM;
     let vector = |at: usize| S::Vector::from_fn(|a| S::Real::from_f64(r[at + a]));
     let real = |at: usize| S::Real::from_f64(r[at]);
@@ -320,7 +475,7 @@ impl Slabs {
 
     /// Edges that give each rank an equal share of the particles at
     /// coordinates `coords` (this rank's; the histogram is summed over all).
-    fn balanced<C: Comm>(
+    fn balanced<C: Comm + ?Sized>(
         comm: &C,
         axis: usize,
         extent: f64,
@@ -393,7 +548,12 @@ fn sorted(dim: usize, words: Vec<f64>) -> Particles {
 
 /// Moves the owned records to their owners under `slabs`, then sends every
 /// rank copies of the particles within `depth` of its slab.
-fn distribute<C: Comm>(comm: &C, slabs: &Slabs, owned: &Particles, depth: f64) -> Part {
+fn distribute<C: Comm + ?Sized>(
+    comm: &C,
+    slabs: &Slabs,
+    owned: &Particles,
+    depth: f64,
+) -> (Part, f64) {
     let (rank, size, dim) = (comm.rank(), comm.size(), owned.dim);
     let w = Particles::width(dim);
     let mut out = vec![Vec::new(); size];
@@ -401,6 +561,7 @@ fn distribute<C: Comm>(comm: &C, slabs: &Slabs, owned: &Particles, depth: f64) -
         let to = slabs.owner(owned.coordinate(k, slabs.axis));
         out[to].extend_from_slice(owned.record(k));
     }
+    let mut sent = bytes(&out);
     let mine = sorted(dim, comm.exchange(out).concat());
     // Copies: to every other rank whose slab lies within the depth.
     let mut out = vec![Vec::new(); size];
@@ -414,6 +575,7 @@ fn distribute<C: Comm>(comm: &C, slabs: &Slabs, owned: &Particles, depth: f64) -
             }
         }
     }
+    sent += bytes(&out);
     let got = comm.exchange(out);
     let mut words = mine.words.clone();
     for g in &got {
@@ -431,12 +593,13 @@ fn distribute<C: Comm>(comm: &C, slabs: &Slabs, owned: &Particles, depth: f64) -
         .iter()
         .map(|g| g.chunks_exact(w).map(|r| slot(r[0])).collect())
         .collect();
-    Part {
+    let part = Part {
         local,
         owned,
         send,
         recv,
-    }
+    };
+    (part, sent)
 }
 
 /// The axis to cut: the longest.
@@ -451,29 +614,121 @@ fn cut_axis<S: Space>(domain: &Domain<S>) -> usize {
     })
 }
 
+/// The gathered state at an output time (on rank 0).
+#[derive(Clone, Debug)]
+pub struct Output {
+    /// The index of the output in the plan.
+    pub index: usize,
+    /// Every fluid particle, in id order.
+    pub particles: Particles,
+    /// The simulated time the solvers reached.
+    pub time: f64,
+    /// The steps taken since the start.
+    pub steps: u64,
+    /// Every rank's figures, in rank order.
+    pub ranks: Vec<RankStats>,
+    /// The rank that owns each particle, in id order.
+    pub owners: Vec<u32>,
+}
+
+/// What one rank held, sent and spent, from the start to an output.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct RankStats {
+    /// The rank.
+    pub rank: usize,
+    /// Particles it owned at the output.
+    pub owned: usize,
+    /// Copies of other ranks' particles it held at the output.
+    pub halo: usize,
+    /// Steps taken.
+    pub steps: u64,
+    /// Migrations (one at each list rebuild).
+    pub migrations: u64,
+    /// Bytes it sent: halo refreshes, migrations, collectives and gathers.
+    pub bytes_sent: f64,
+    /// Seconds in its solver's steps.
+    pub step_seconds: f64,
+    /// Seconds refreshing the halo (packing, exchange, unpacking).
+    pub halo_seconds: f64,
+    /// Seconds in the per-step collective (the drift, the speed, failures):
+    /// mostly waiting for the slowest rank.
+    pub reduce_seconds: f64,
+    /// Seconds migrating and building the next part's solver.
+    pub migrate_seconds: f64,
+}
+
+impl RankStats {
+    fn words(&self) -> [f64; 10] {
+        [
+            self.rank as f64,
+            self.owned as f64,
+            self.halo as f64,
+            self.steps as f64,
+            self.migrations as f64,
+            self.bytes_sent,
+            self.step_seconds,
+            self.halo_seconds,
+            self.reduce_seconds,
+            self.migrate_seconds,
+        ]
+    }
+
+    fn from_words(w: &[f64]) -> Self {
+        Self {
+            rank: w[0] as usize,
+            owned: w[1] as usize,
+            halo: w[2] as usize,
+            steps: w[3] as u64,
+            migrations: w[4] as u64,
+            bytes_sent: w[5],
+            step_seconds: w[6],
+            halo_seconds: w[7],
+            reduce_seconds: w[8],
+            migrate_seconds: w[9],
+        }
+    }
+}
+
+/// What a distributed run does to every rank's solver before each step,
+/// given the largest fluid speed of all ranks.
+pub type BeforeStep<'f, S, K, M, D, T> =
+    dyn Fn(&mut Solver<'_, S, K, M, D, T>, f64) -> Result<()> + 'f;
+
+/// Bytes in buffers of `f64` words.
+fn bytes(out: &[Vec<f64>]) -> f64 {
+    out.iter().map(|b| 8.0 * b.len() as f64).sum()
+}
+
 /// Steps a scene's fluid `initial` (every particle, ids `0..n` in the single
-/// solver's order, as [`Particles::of_solver`] gives after set-up) `steps`
-/// times by `dt` on the ranks of `comm`, each rank's passes through `exec`.
-/// Rank 0 returns every particle in id order, the others `None`.
+/// solver's order, as [`Particles::of_solver`] gives after set-up) on the
+/// ranks of `comm`, each rank's passes through `exec`: for each `(steps,
+/// dt)` of `plan`, that many steps of `dt`, then the particles gathered on
+/// rank 0 and handed to `on_output` there, which returns whether the run
+/// stops. Before each step `before_step` sees every rank's solver with the
+/// largest fluid speed of all ranks (the single solver's
+/// [`Solver::max_speed`]), to retune its forces.
 ///
 /// # Errors
-/// [`Error::Core`] if a rank's solver refuses its part or diverges (that
-/// rank's error; the others report [`Error::Diverged`] naming it).
+/// [`Error::Core`] if a rank's solver refuses its part or diverges, or the
+/// error of `before_step` or `on_output` (on the rank where it arose; the
+/// others report [`Error::Diverged`] naming it).
+#[allow(clippy::too_many_arguments)]
 pub fn run<S, K, M, D, T, C, E>(
     comm: &C,
     exec: &E,
     setup: &Setup<S, D, T>,
     initial: &Particles,
-    dt: f64,
-    steps: u64,
-) -> Result<Option<Particles>>
+    plan: &[(u64, f64)],
+    before_step: &BeforeStep<'_, S, K, M, D, T>,
+    on_output: &mut dyn FnMut(Output) -> Result<bool>,
+) -> Result<()>
 where
     S: Space,
     K: Kernel,
     M: Math<S::Real>,
     D: Term<S>,
     T: Term<S>,
-    C: Comm,
+    C: Comm + ?Sized,
     E: Executor,
 {
     let dim = S::DIM;
@@ -503,9 +758,18 @@ where
         .map(|k| owned.coordinate(k, axis))
         .collect();
     let slabs = Slabs::balanced(comm, axis, extent, periodic, &coords);
-    let mut part = distribute(comm, &slabs, &owned, levels * radius);
+    let mut stats = RankStats {
+        rank: comm.rank(),
+        ..RankStats::default()
+    };
+    let (mut part, sent) = distribute(comm, &slabs, &owned, levels * radius);
+    stats.bytes_sent += sent;
+    // Steps done, the output next due and the steps it falls after.
     let mut done = 0u64;
+    let mut index = 0usize;
+    let mut due = plan.first().map_or(0, |p| p.0);
     let mut state: Option<Resume> = None;
+    let mut migrating: Option<Stopwatch> = None;
     loop {
         let n = part.local.len();
         let mut buffers =
@@ -553,6 +817,9 @@ where
                 write_record::<S>(&mut f, k, part.local.record(k));
             }
         }
+        if let Some(clock) = migrating.take() {
+            stats.migrate_seconds += clock.seconds();
+        }
         // The records were just written: every particle's state is exact.
         let mut fresh = true;
         loop {
@@ -560,19 +827,34 @@ where
             // the drift on exact particles (the halo's outer layer drifts
             // on cut neighbourhoods within a step).
             if !fresh {
-                match solver.as_mut() {
+                let clock = Stopwatch::start();
+                stats.bytes_sent += match solver.as_mut() {
                     Some(s) => refresh(comm, s, &part),
-                    None => drop(comm.exchange(vec![Vec::new(); comm.size()])),
-                }
+                    None => {
+                        comm.exchange(vec![Vec::new(); comm.size()]);
+                        0.0
+                    }
+                };
+                stats.halo_seconds += clock.seconds();
             }
-            // One collective per step: the largest drift and whether any
-            // rank failed.
+            let dt = plan.get(index).map_or(0.0, |p| p.1);
+            // One collective per step: the largest drift and speed, and
+            // whether any rank failed.
             let local = match (&solver, &failure) {
-                (Some(s), None) => [s.drift_speed2(dt).to_f64(), -1.0],
-                _ => [0.0, comm.rank() as f64],
+                (Some(s), None) => {
+                    let v2 = s
+                        .velocities()
+                        .iter()
+                        .fold(S::Real::ZERO, |m, v| m.max(v.norm2()));
+                    [s.drift_speed2(dt).to_f64(), v2.to_f64(), -1.0]
+                }
+                _ => [0.0, 0.0, comm.rank() as f64],
             };
+            let clock = Stopwatch::start();
             let agreed = comm.max(&local);
-            let (drift2, failed) = (agreed[0], agreed[1]);
+            stats.reduce_seconds += clock.seconds();
+            stats.bytes_sent += 8.0 * (local.len() * comm.size()) as f64;
+            let (drift2, vmax2, failed) = (agreed[0], agreed[1], agreed[2]);
             let s = match solver.as_mut() {
                 Some(s) if failed < 0.0 => s,
                 _ => {
@@ -581,32 +863,87 @@ where
                     }))
                 }
             };
+            if done == due && index < plan.len() {
+                let st = s.storage();
+                let mut words = Vec::with_capacity(part.owned.len() * w);
+                for &i in &part.owned {
+                    push_record(&mut words, part.local.record(i)[0], &st, i);
+                }
+                stats.bytes_sent += 8.0 * words.len() as f64;
+                let all = comm.exchange(
+                    (0..comm.size())
+                        .map(|r| if r == 0 { words.clone() } else { Vec::new() })
+                        .collect(),
+                );
+                stats.owned = part.owned.len();
+                stats.halo = part.local.len() - part.owned.len();
+                stats.steps = done;
+                let figures = comm.exchange(
+                    (0..comm.size())
+                        .map(|r| {
+                            if r == 0 {
+                                stats.words().to_vec()
+                            } else {
+                                Vec::new()
+                            }
+                        })
+                        .collect(),
+                );
+                // Rank 0 decides whether the run goes on; an error there
+                // stops every rank.
+                let verdict = if comm.rank() == 0 {
+                    let mut owners = vec![0u32; initial.len()];
+                    for (r, words) in all.iter().enumerate() {
+                        for rec in words.chunks_exact(w) {
+                            if let Some(o) = owners.get_mut(rec[0] as usize) {
+                                *o = r as u32;
+                            }
+                        }
+                    }
+                    on_output(Output {
+                        index,
+                        owners,
+                        particles: sorted(dim, all.concat()),
+                        time: s.time(),
+                        steps: s.steps(),
+                        ranks: figures.iter().map(|w| RankStats::from_words(w)).collect(),
+                    })
+                } else {
+                    Ok(false)
+                };
+                let code = match &verdict {
+                    Ok(false) => 0.0,
+                    Ok(true) => 1.0,
+                    Err(_) => 2.0,
+                };
+                let code = comm.max(&[code])[0];
+                verdict?;
+                if code == 2.0 {
+                    return Err(Error::Diverged(
+                        "rank 0 failed at an output; the run stops with it".into(),
+                    ));
+                }
+                index += 1;
+                if code == 1.0 || index == plan.len() {
+                    return Ok(());
+                }
+                due += plan[index].0;
+                // The step's length changed: measure the drift again.
+                fresh = false;
+                continue;
+            }
             let drift2 = S::Real::from_f64(drift2);
             // A part after a migration rebuilds in its first step; it
             // migrates again only at the next rebuild.
-            let migrate = !(fresh && state.is_some()) && s.rebuilds_next(dt, drift2);
-            if done == steps || migrate {
-                // Owned particles out, for the gather or the migration.
+            if !(fresh && state.is_some()) && s.rebuilds_next(dt, drift2) {
+                let clock = Stopwatch::start();
+                stats.migrations += 1;
                 let st = s.storage();
                 let mut words = Vec::with_capacity(part.owned.len() * w);
                 for &i in &part.owned {
                     push_record(&mut words, part.local.record(i)[0], &st, i);
                 }
                 owned = Particles { dim, words };
-                if done == steps {
-                    let all = comm.exchange(
-                        (0..comm.size())
-                            .map(|r| {
-                                if r == 0 {
-                                    owned.words.clone()
-                                } else {
-                                    Vec::new()
-                                }
-                            })
-                            .collect(),
-                    );
-                    return Ok((comm.rank() == 0).then(|| sorted(dim, all.concat())));
-                }
                 let mut resume = s.resume_state();
                 resume.lists_fresh = false;
                 resume.n_ghost = 0;
@@ -620,12 +957,21 @@ where
                     .map(|k| owned.coordinate(k, axis))
                     .collect();
                 let slabs = Slabs::balanced(comm, axis, extent, periodic, &coords);
-                part = distribute(comm, &slabs, &owned, levels * radius + reach);
+                let sent;
+                (part, sent) = distribute(comm, &slabs, &owned, levels * radius + reach);
+                stats.bytes_sent += sent;
+                // The next part's solver is built at the loop's top.
+                migrating = Some(clock);
                 break;
             }
             fresh = false;
-            if let Err(e) = s.step_bounded_with(exec, dt, drift2) {
-                failure = Some(Error::Core(e));
+            let vmax = M::sqrt(S::Real::from_f64(vmax2)).to_f64();
+            let clock = Stopwatch::start();
+            let stepped = before_step(s, vmax)
+                .and_then(|()| s.step_bounded_with(exec, dt, drift2).map_err(Error::Core));
+            stats.step_seconds += clock.seconds();
+            if let Err(e) = stepped {
+                failure = Some(e);
                 solver = None;
                 continue;
             }
@@ -634,18 +980,18 @@ where
     }
 }
 
-/// Sends the owners' current state to every copy.
-fn refresh<S, K, M, D, T, C>(comm: &C, s: &mut Solver<'_, S, K, M, D, T>, part: &Part)
+/// Sends the owners' current state to every copy; returns the bytes sent.
+fn refresh<S, K, M, D, T, C>(comm: &C, s: &mut Solver<'_, S, K, M, D, T>, part: &Part) -> f64
 where
     S: Space,
     K: Kernel,
     M: Math<S::Real>,
     D: Term<S>,
     T: Term<S>,
-    C: Comm,
+    C: Comm + ?Sized,
 {
     let st = s.storage();
-    let out = part
+    let out: Vec<Vec<f64>> = part
         .send
         .iter()
         .map(|slots| {
@@ -656,6 +1002,7 @@ where
             words
         })
         .collect();
+    let sent = bytes(&out);
     let got = comm.exchange(out);
     let w = Particles::width(S::DIM);
     let mut f = s.fluid_mut();
@@ -664,6 +1011,7 @@ where
             write_record::<S>(&mut f, i, r);
         }
     }
+    sent
 }
 
 #[cfg(test)]
@@ -747,9 +1095,21 @@ mod tests {
         let want = Particles::of_solver(&single);
         for ranks in 1..=4 {
             let got = Threads::run(ranks, |comm| {
+                let mut got = None;
                 run::<D2<f64>, CubicSpline, Libm, D, T, _, _>(
-                    comm, &Serial, &setup, &initial, dt, steps,
+                    comm,
+                    &Serial,
+                    &setup,
+                    &initial,
+                    &[(steps, dt)],
+                    &|_, _| Ok(()),
+                    &mut |out| {
+                        assert_eq!((out.index, out.steps), (0, steps));
+                        got = Some(out.particles);
+                        Ok(false)
+                    },
                 )
+                .map(|()| got)
             })
             .unwrap();
             let got = got.into_iter().next().unwrap().unwrap().unwrap();
@@ -760,6 +1120,73 @@ mod tests {
                 assert!(same, "{ranks} ranks, particle {k}:\n{a:?}\n{b:?}");
             }
         }
+    }
+
+    #[test]
+    fn a_funnelled_comm_exchanges_as_its_transport() {
+        let got = Threads::run(3, |comm| {
+            funnel(comm, |relay| {
+                let r = relay.rank() as f64;
+                let out = (0..3).map(|to| vec![10.0 * r + to as f64]).collect();
+                (relay.exchange(out), relay.sum(&[r]), relay.max(&[r]))
+            })
+            .unwrap()
+        })
+        .unwrap();
+        for (r, (got, sum, max)) in got.into_iter().enumerate() {
+            let want: Vec<Vec<f64>> = (0..3)
+                .map(|from| vec![10.0 * from as f64 + r as f64])
+                .collect();
+            assert_eq!(got, want);
+            assert_eq!((sum, max), (vec![3.0], vec![2.0]));
+        }
+    }
+
+    /// Runs a built-in case as one process and on `ranks` (threads as
+    /// ranks, through `scene::run_with`), `fraction` of its default
+    /// duration at `resolution`, and asserts the same frames and
+    /// diagnostics, bit for bit (as their shortest round-trip text).
+    fn same_record(name: &str, resolution: usize, fraction: f64, ranks: &[usize]) {
+        use crate::scene::{run, run_with, RunControl};
+        let mut settings = (crate::cases::find(name).unwrap().defaults)();
+        settings.resolution = resolution;
+        settings.t_end *= fraction;
+        settings.output_interval = settings.t_end / 2.0;
+        settings.threads = 1;
+        let mut scene = crate::cases::scene(&settings).unwrap();
+        scene.keep_particles = true;
+        let silent = crate::couette::Silent;
+        let want = run(&scene, &silent).unwrap();
+        assert!(
+            want.complete() && want.frames.len() == 3,
+            "{name}: {:?}",
+            want.stop
+        );
+        assert!(want.steps >= 20, "{name}: only {} steps", want.steps);
+        let text =
+            |r: &crate::scene::RunRecord| format!("{:?} {:?} {}", r.frames, r.outputs, r.steps);
+        for &n in ranks {
+            let got = Threads::run(n, |comm| {
+                let mut none =
+                    |_: &crate::scene::RunRecord, _: &crate::checkpoint::Checkpoint| Ok(());
+                let mut ctl = RunControl::new(&silent, &mut none);
+                ctl.ranks = Some(comm);
+                run_with(&scene, &mut ctl).map(|r| text(&r))
+            })
+            .unwrap();
+            assert_eq!(
+                got[0].as_ref().unwrap(),
+                &text(&want),
+                "{name} on {n} ranks"
+            );
+        }
+    }
+
+    #[test]
+    fn the_couette_taylor_green_and_cavity_scenes_on_2_and_3_ranks_are_the_single_run_bitwise() {
+        same_record("couette", 12, 0.02, &[2, 3]);
+        same_record("taylor-green", 16, 0.05, &[2, 3]);
+        same_record("lid-driven-cavity", 12, 0.01, &[2, 3]);
     }
 
     #[test]

@@ -402,6 +402,13 @@ fn data_array(
 /// (`|v - v_exact|` relative to the snapshot's error scale). ParaView,
 /// VisIt and meshio read it.
 pub fn vtu(snap: &Snapshot, encoding: VtkEncoding) -> String {
+    let ids: Vec<i64> = (0..snap.x.len() as i64).collect();
+    vtu_with_ids(snap, &ids, encoding)
+}
+
+/// A `.vtu` like [`vtu`] whose `id` array holds `ids` (a piece of a
+/// parallel collection: the particles' ids in the whole run).
+pub fn vtu_with_ids(snap: &Snapshot, ids: &[i64], encoding: VtkEncoding) -> String {
     let n = snap.x.len();
     let flat = |v: &[[f64; 3]]| v.iter().flatten().copied().collect::<Vec<f64>>();
     let mut s = String::new();
@@ -410,8 +417,7 @@ pub fn vtu(snap: &Snapshot, encoding: VtkEncoding) -> String {
     s.push_str("<UnstructuredGrid>\n");
     let _ = writeln!(s, "<Piece NumberOfPoints=\"{n}\" NumberOfCells=\"{n}\">");
     s.push_str("<PointData Vectors=\"velocity\" Scalars=\"density\">\n");
-    let ids: Vec<i64> = (0..n as i64).collect();
-    data_array(&mut s, "id", 1, Values::I64(&ids), encoding);
+    data_array(&mut s, "id", 1, Values::I64(ids), encoding);
     data_array(&mut s, "velocity", 3, Values::F64(&flat(&snap.v)), encoding);
     data_array(&mut s, "density", 1, Values::F64(&snap.rho), encoding);
     data_array(&mut s, "pressure", 1, Values::F64(&snap.p), encoding);
@@ -438,10 +444,44 @@ pub fn vtu(snap: &Snapshot, encoding: VtkEncoding) -> String {
     data_array(&mut s, "position", 3, Values::F64(&flat(&snap.x)), encoding);
     s.push_str("</Points>\n<Cells>\n");
     let offsets: Vec<i64> = (1..=n as i64).collect();
-    data_array(&mut s, "connectivity", 1, Values::I64(&ids), encoding);
+    let connectivity: Vec<i64> = (0..n as i64).collect();
+    data_array(
+        &mut s,
+        "connectivity",
+        1,
+        Values::I64(&connectivity),
+        encoding,
+    );
     data_array(&mut s, "offsets", 1, Values::I64(&offsets), encoding);
     data_array(&mut s, "types", 1, Values::U8(&vec![1u8; n]), encoding);
     s.push_str("</Cells>\n</Piece>\n</UnstructuredGrid>\n</VTKFile>\n");
+    s
+}
+
+/// A `.pvtu` (VTK XML parallel UnstructuredGrid) that joins the `.vtu`
+/// pieces `pieces` (one per rank, written by [`vtu_with_ids`]) into one
+/// data set; `exact` says whether they hold `velocity_exact` and `error`.
+pub fn pvtu(pieces: &[String], exact: bool) -> String {
+    let mut s = String::from("<?xml version=\"1.0\"?>\n<VTKFile type=\"PUnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\">\n<PUnstructuredGrid GhostLevel=\"0\">\n<PPointData Vectors=\"velocity\" Scalars=\"density\">\n");
+    let mut array = |kind: &str, name: &str, components: usize| {
+        let _ = writeln!(
+            s,
+            "<PDataArray type=\"{kind}\" Name=\"{name}\" NumberOfComponents=\"{components}\"/>"
+        );
+    };
+    array("Int64", "id", 1);
+    array("Float64", "velocity", 3);
+    array("Float64", "density", 1);
+    array("Float64", "pressure", 1);
+    if exact {
+        array("Float64", "velocity_exact", 3);
+        array("Float64", "error", 1);
+    }
+    s.push_str("</PPointData>\n<PPoints>\n<PDataArray type=\"Float64\" Name=\"position\" NumberOfComponents=\"3\"/>\n</PPoints>\n");
+    for piece in pieces {
+        let _ = writeln!(s, "<Piece Source=\"{piece}\"/>");
+    }
+    s.push_str("</PUnstructuredGrid>\n</VTKFile>\n");
     s
 }
 

@@ -10,7 +10,7 @@ use serde::Serialize;
 use crate::cases::{Reference, Settings};
 use crate::couette::Snapshot;
 use crate::error::{Error, Result};
-use crate::output::{pvd, vtu, write_atomic, VtkEncoding};
+use crate::output::{pvd, pvtu, vtu, vtu_with_ids, write_atomic, VtkEncoding};
 use crate::plot::{line_plot, Axes, Series};
 use crate::scene::{
     energy_drift, Diagnostics, EnergyDrift, Monitor, Physics, RunRecord, VectorField,
@@ -42,6 +42,9 @@ struct Summary<'a> {
     dt_range: Option<[f64; 2]>,
     steps: u64,
     threads: usize,
+    ranks: usize,
+    #[serde(skip_serializing_if = "<[_]>::is_empty")]
+    ranks_detail: &'a [crate::distributed::RankStats],
     wall_seconds: f64,
     storage_bytes: usize,
     outputs: &'a [Diagnostics],
@@ -97,6 +100,8 @@ pub fn summary_json(
         dt_range: record.dt_range,
         steps: record.steps,
         threads: record.threads,
+        ranks: record.ranks,
+        ranks_detail: &record.rank_stats,
         wall_seconds: record.wall_seconds,
         storage_bytes: record.storage_bytes,
         outputs: &record.outputs,
@@ -344,9 +349,40 @@ pub fn write_record(
                     .map(|field| f.x.iter().map(|x| field(*x, f.t)).collect()),
                 error_scale: record.velocity_scale * (vtk.error_decay * f.t).exp(),
             };
-            let name = format!("particles_{k:04}.vtu");
-            put(&name, vtu(&snap, vtk.encoding).as_bytes())?;
-            entries.push((f.t, name));
+            match record.frame_owners.get(k).filter(|o| !o.is_empty()) {
+                // On several ranks: one piece per rank, joined by a .pvtu.
+                Some(owners) => {
+                    let ranks = owners.iter().map(|&r| r as usize + 1).max().unwrap_or(0);
+                    let mut pieces = Vec::new();
+                    for r in 0..ranks {
+                        let mine: Vec<usize> = (0..owners.len())
+                            .filter(|&i| owners[i] as usize == r)
+                            .collect();
+                        let pick = |v: &[[f64; 3]]| mine.iter().map(|&i| v[i]).collect::<Vec<_>>();
+                        let piece = Snapshot {
+                            t: snap.t,
+                            x: pick(&snap.x),
+                            v: pick(&snap.v),
+                            rho: mine.iter().map(|&i| snap.rho[i]).collect(),
+                            p: mine.iter().map(|&i| snap.p[i]).collect(),
+                            v_exact: snap.v_exact.as_deref().map(pick),
+                            error_scale: snap.error_scale,
+                        };
+                        let ids: Vec<i64> = mine.iter().map(|&i| i as i64).collect();
+                        let name = format!("particles_{k:04}_{r}.vtu");
+                        put(&name, vtu_with_ids(&piece, &ids, vtk.encoding).as_bytes())?;
+                        pieces.push(name);
+                    }
+                    let name = format!("particles_{k:04}.pvtu");
+                    put(&name, pvtu(&pieces, snap.v_exact.is_some()).as_bytes())?;
+                    entries.push((f.t, name));
+                }
+                None => {
+                    let name = format!("particles_{k:04}.vtu");
+                    put(&name, vtu(&snap, vtk.encoding).as_bytes())?;
+                    entries.push((f.t, name));
+                }
+            }
         }
         put("particles.pvd", pvd(&entries).as_bytes())?;
     }

@@ -38,6 +38,7 @@ use crate::checkpoint::Checkpoint;
 use crate::config::{DensityMode, KernelName, MathBackend, Precision, ViscosityForm};
 pub use crate::config::{EosForm, PressureForm, WallBoundary, WallPressure};
 use crate::couette::{Progress, SKIN};
+use crate::distributed::{self, Comm, Particles, Setup};
 use crate::driver::Buffers;
 #[cfg(feature = "full")]
 use crate::driver::Rayon;
@@ -462,8 +463,17 @@ pub struct RunRecord {
     pub dt_range: Option<[f64; 2]>,
     /// Steps taken.
     pub steps: u64,
-    /// Threads used.
+    /// Threads used (on each rank).
     pub threads: usize,
+    /// Ranks the run was spread over ([`RunControl::ranks`]; 1 in one
+    /// process).
+    pub ranks: usize,
+    /// On several ranks: what each held, sent and spent (empty in one
+    /// process).
+    pub rank_stats: Vec<distributed::RankStats>,
+    /// On several ranks: the rank that owned each particle at each frame
+    /// (for the VTK pieces; empty in one process).
+    pub frame_owners: Vec<Vec<u32>>,
     /// Wall-clock seconds.
     pub wall_seconds: f64,
     /// Bytes of particle storage.
@@ -521,6 +531,11 @@ pub struct RunControl<'a> {
     /// particle fields the caller changed. Without changes, leave it off (the
     /// continuation is then bitwise the uninterrupted run).
     pub refresh: bool,
+    /// Run on these ranks ([`crate::distributed`]; `sph run --mpi`): the
+    /// same particles and figures as one process, bit for bit, with the
+    /// record complete on rank 0 only. A run with checkpoints, a pause, a
+    /// resume, an adaptive step or an energy budget is refused.
+    pub ranks: Option<&'a (dyn Comm + Sync)>,
 }
 
 impl<'a> RunControl<'a> {
@@ -536,6 +551,7 @@ impl<'a> RunControl<'a> {
             on_checkpoint,
             pause_after: None,
             refresh: false,
+            ranks: None,
         }
     }
 }
@@ -561,6 +577,30 @@ pub fn run(scene: &Scene, progress: &dyn Progress) -> Result<RunRecord> {
 /// does not belong to this scene; errors of `on_checkpoint`.
 pub fn run_with(scene: &Scene, ctl: &mut RunControl<'_>) -> Result<RunRecord> {
     check_scene(scene)?;
+    if ctl.ranks.is_some() {
+        let refused = [
+            (ctl.resume.is_some(), "a resumed run"),
+            (ctl.checkpoint_every.is_some(), "checkpoints"),
+            (ctl.pause_after.is_some(), "a paused run"),
+            (
+                scene.physics.adaptive_dt,
+                "an adaptive time step (adaptive_dt)",
+            ),
+            (
+                scene.physics.energy_budget,
+                "the energy budget (energy_budget)",
+            ),
+        ];
+        if let Some((_, what)) = refused.iter().find(|r| r.0) {
+            return Err(Error::config(
+                "mpi",
+                "on",
+                format!(
+                    "a run on several ranks does not support {what} yet; run it in one process"
+                ),
+            ));
+        }
+    }
     if let Some(every) = ctl.checkpoint_every {
         if !(every > 0.0 && every.is_finite()) {
             return Err(Error::config(
@@ -585,6 +625,7 @@ pub fn run_with(scene: &Scene, ctl: &mut RunControl<'_>) -> Result<RunRecord> {
         on_checkpoint: &mut hook,
         pause_after: ctl.pause_after,
         refresh: ctl.refresh,
+        ranks: ctl.ranks,
     };
     #[cfg(feature = "full")]
     let mut record = if threads == 1 {
@@ -600,6 +641,7 @@ pub fn run_with(scene: &Scene, ctl: &mut RunControl<'_>) -> Result<RunRecord> {
     let (threads, mut record) = (1, by_dim(scene, &Serial, &mut inner)?);
     ctl.progress.finish();
     record.threads = threads;
+    record.ranks = ctl.ranks.map_or(1, |c| c.size());
     record.wall_seconds = start.seconds();
     Ok(record)
 }
@@ -607,20 +649,20 @@ pub fn run_with(scene: &Scene, ctl: &mut RunControl<'_>) -> Result<RunRecord> {
 /// Wall-clock seconds since a start. wasm32-unknown-unknown has no clock
 /// (`Instant::now` panics there), so a run in a browser reports 0 s; its
 /// page times the calls itself.
-struct Stopwatch {
+pub(crate) struct Stopwatch {
     #[cfg(not(all(target_arch = "wasm32", target_os = "unknown")))]
     start: std::time::Instant,
 }
 
 impl Stopwatch {
-    fn start() -> Self {
+    pub(crate) fn start() -> Self {
         Self {
             #[cfg(not(all(target_arch = "wasm32", target_os = "unknown")))]
             start: std::time::Instant::now(),
         }
     }
 
-    fn seconds(&self) -> f64 {
+    pub(crate) fn seconds(&self) -> f64 {
         #[cfg(not(all(target_arch = "wasm32", target_os = "unknown")))]
         return self.start.elapsed().as_secs_f64();
         #[cfg(all(target_arch = "wasm32", target_os = "unknown"))]
@@ -1453,6 +1495,9 @@ impl<E: Executor> Context<'_, '_, E> {
             dt_range: resume.and_then(|ck| ck.dt_range),
             steps: 0,
             threads: 1,
+            ranks: 1,
+            rank_stats: Vec::new(),
+            frame_owners: Vec::new(),
             wall_seconds: 0.0,
             storage_bytes,
             neighbours_mean: None,
@@ -1492,6 +1537,96 @@ impl<E: Executor> Context<'_, '_, E> {
             budget: budget.unwrap_or([0.0; 4]),
             options: Default::default(),
         };
+        if let Some(comm) = self.ctl.ranks {
+            let setup = Setup {
+                params,
+                domain,
+                density,
+                forces,
+                cells,
+                list_width: width,
+                ghost_room: capacity - n,
+            };
+            let initial = Particles::of_solver(&solver);
+            let steps: Vec<(u64, f64)> = plan.iter().map(|p| (p.1, p.2)).collect();
+            let before_step = |solver: &mut Solver<'_, S, K, M, D, T>, vmax: f64| -> Result<()> {
+                let on = f(ramp_factor(solver.time(), s.physics.gravity_ramp));
+                retune(solver.forces_mut(), vmax, on);
+                if ramped_walls {
+                    solver.set_wall_gravity(body_force * on)?;
+                }
+                Ok(())
+            };
+            // Rank 0: this process's solver takes every gathered state
+            // and judges it as a single run judges its own.
+            let mut on_output = |out: distributed::Output| -> Result<bool> {
+                let write = |solver: &mut Solver<'_, S, K, M, D, T>| {
+                    let mut fluid = solver.fluid_mut();
+                    for k in 0..n {
+                        distributed::write_record::<S>(&mut fluid, k, out.particles.record(k));
+                    }
+                };
+                write(&mut solver);
+                // Lists and ghosts at the gathered positions for the closest
+                // pair; then the state again, over the re-evaluation's.
+                solver.refresh_with(exec)?;
+                write(&mut solver);
+                let t_out = plan[out.index].0;
+                self.ctl.progress.advance(plan[out.index].1);
+                record.steps = out.steps;
+                record.rank_stats = out.ranks;
+                let (diag, worst) = self.diagnostics(&solver, t_out, None);
+                record.outputs.push(diag);
+                if s.keep_particles {
+                    record.frames.push(frame(&solver, t_out));
+                    record.frame_owners.push(out.owners);
+                }
+                if let Some(stop) = self.judge(out.time, &worst) {
+                    record.stop = Some(stop);
+                    return Ok(true);
+                }
+                if let Some(tol) = s.steady_tolerance {
+                    if steady(&record.outputs, tol, s.length_scale / s.velocity_scale) {
+                        record.steady = true;
+                        return Ok(true);
+                    }
+                }
+                Ok(false)
+            };
+            let ran = distributed::run::<S, K, M, D, T, _, _>(
+                comm,
+                exec,
+                &setup,
+                &initial,
+                &steps,
+                &before_step,
+                &mut on_output,
+            );
+            if let Err(e) = ran {
+                // A diverged part stops the run as a single run's step would.
+                // (The particle is an index on the rank that failed.)
+                let (particle, reason) = match e {
+                    Error::Core(c) => (
+                        match c {
+                            sph_core::error::Error::Unstable { particle, .. } => Some(particle),
+                            _ => None,
+                        },
+                        format!("the run diverged: {c}"),
+                    ),
+                    Error::Diverged(why) => (None, format!("the run diverged: {why}")),
+                    other => return Err(other),
+                };
+                record.stop = Some(Stop {
+                    t: record.outputs.last().map_or(0.0, |d| d.t),
+                    particle,
+                    reason,
+                });
+            }
+            if comm.rank() == 0 {
+                record.neighbours_mean = crate::bench::mean_neighbours(&solver).ok();
+            }
+            return Ok(record);
+        }
         'outputs: for (interval, &(t_out, steps, fixed_dt)) in
             plan.iter().enumerate().skip(first_interval)
         {
