@@ -371,28 +371,21 @@ fn run_scene(args: &RunArgs) -> Result<()> {
         checkpoint_every: args.checkpoint_every.unwrap_or(0.0),
         allow_long_run: args.allow_long_run,
     };
+    let run = |ranks: Option<&(dyn Comm + Sync)>| {
+        execute(
+            &settings,
+            &dir,
+            args.overwrite,
+            options,
+            None,
+            args.quiet,
+            ranks,
+        )
+    };
     if args.mpi {
-        return sph_std::distributed::with_mpi(|comm| {
-            execute(
-                &settings,
-                &dir,
-                args.overwrite,
-                options,
-                None,
-                args.quiet,
-                Some(comm),
-            )
-        })?;
+        return sph_std::distributed::with_mpi(|comm| run(Some(comm)))?;
     }
-    execute(
-        &settings,
-        &dir,
-        args.overwrite,
-        options,
-        None,
-        args.quiet,
-        None,
-    )
+    run(None)
 }
 
 fn resume_scene(args: &ResumeArgs) -> Result<()> {

@@ -561,7 +561,7 @@ fn distribute<C: Comm + ?Sized>(
         let to = slabs.owner(owned.coordinate(k, slabs.axis));
         out[to].extend_from_slice(owned.record(k));
     }
-    let mut sent = bytes(&out);
+    let mut sent = bytes_to_others(&out, rank);
     let mine = sorted(dim, comm.exchange(out).concat());
     // Copies: to every other rank whose slab lies within the depth.
     let mut out = vec![Vec::new(); size];
@@ -575,7 +575,7 @@ fn distribute<C: Comm + ?Sized>(
             }
         }
     }
-    sent += bytes(&out);
+    sent += bytes_to_others(&out, rank);
     let got = comm.exchange(out);
     let mut words = mine.words.clone();
     for g in &got {
@@ -694,9 +694,14 @@ impl RankStats {
 pub type BeforeStep<'f, S, K, M, D, T> =
     dyn Fn(&mut Solver<'_, S, K, M, D, T>, f64) -> Result<()> + 'f;
 
-/// Bytes in buffers of `f64` words.
-fn bytes(out: &[Vec<f64>]) -> f64 {
-    out.iter().map(|b| 8.0 * b.len() as f64).sum()
+/// Bytes in buffers of `f64` words bound for ranks other than `rank` (a
+/// rank's buffer to itself is a copy, not traffic).
+fn bytes_to_others(out: &[Vec<f64>], rank: usize) -> f64 {
+    out.iter()
+        .enumerate()
+        .filter(|(r, _)| *r != rank)
+        .map(|(_, b)| 8.0 * b.len() as f64)
+        .sum()
 }
 
 /// Steps a scene's fluid `initial` (every particle, ids `0..n` in the single
@@ -853,7 +858,7 @@ where
             let clock = Stopwatch::start();
             let agreed = comm.max(&local);
             stats.reduce_seconds += clock.seconds();
-            stats.bytes_sent += 8.0 * (local.len() * comm.size()) as f64;
+            stats.bytes_sent += 8.0 * (local.len() * (comm.size() - 1)) as f64;
             let (drift2, vmax2, failed) = (agreed[0], agreed[1], agreed[2]);
             let s = match solver.as_mut() {
                 Some(s) if failed < 0.0 => s,
@@ -869,7 +874,9 @@ where
                 for &i in &part.owned {
                     push_record(&mut words, part.local.record(i)[0], &st, i);
                 }
-                stats.bytes_sent += 8.0 * words.len() as f64;
+                if comm.rank() != 0 {
+                    stats.bytes_sent += 8.0 * words.len() as f64;
+                }
                 let all = comm.exchange(
                     (0..comm.size())
                         .map(|r| if r == 0 { words.clone() } else { Vec::new() })
@@ -1002,7 +1009,7 @@ where
             words
         })
         .collect();
-    let sent = bytes(&out);
+    let sent = bytes_to_others(&out, comm.rank());
     let got = comm.exchange(out);
     let w = Particles::width(S::DIM);
     let mut f = s.fluid_mut();
@@ -1158,7 +1165,7 @@ mod tests {
         let silent = crate::couette::Silent;
         let want = run(&scene, &silent).unwrap();
         assert!(
-            want.complete() && want.frames.len() == 3,
+            want.complete() && want.frames.len() == 2,
             "{name}: {:?}",
             want.stop
         );
@@ -1184,7 +1191,7 @@ mod tests {
 
     #[test]
     fn the_couette_taylor_green_and_cavity_scenes_on_2_and_3_ranks_are_the_single_run_bitwise() {
-        same_record("couette", 12, 0.02, &[2, 3]);
+        same_record("couette", 12, 0.05, &[2, 3]);
         same_record("taylor-green", 16, 0.05, &[2, 3]);
         same_record("lid-driven-cavity", 12, 0.01, &[2, 3]);
     }
