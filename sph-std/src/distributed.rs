@@ -435,15 +435,20 @@ struct Slabs {
     edges: Vec<f64>,
 }
 
+/// Coordinate `c` wrapped into `0..extent` on a periodic axis.
+fn wrap(periodic: bool, extent: f64, c: f64) -> f64 {
+    if periodic {
+        c.rem_euclid(extent)
+    } else {
+        c
+    }
+}
+
 impl Slabs {
     /// The coordinate along the axis, wrapped into the box on a periodic
     /// axis (between rebuilds positions may lie half a skin outside).
     fn coordinate(&self, c: f64) -> f64 {
-        if self.periodic {
-            c.rem_euclid(self.extent)
-        } else {
-            c
-        }
+        wrap(self.periodic, self.extent, c)
     }
 
     /// The rank whose slab holds coordinate `c`.
@@ -487,7 +492,7 @@ impl Slabs {
         let mut counts = vec![0.0; bins];
         let scale = bins as f64 / extent;
         for &c in coords {
-            let c = if periodic { c.rem_euclid(extent) } else { c };
+            let c = wrap(periodic, extent, c);
             let b = ((c * scale).floor().max(0.0) as usize).min(bins - 1);
             counts[b] += 1.0;
         }
@@ -533,6 +538,26 @@ struct Part {
     send: Vec<Vec<usize>>,
     /// Per rank: the local slots of the copies it sends, in its order.
     recv: Vec<Vec<usize>>,
+}
+
+impl Part {
+    /// The records of the local particles at `slots`, from `solver`'s
+    /// current state.
+    fn pack<S, K, M, D, T>(&self, solver: &Solver<'_, S, K, M, D, T>, slots: &[usize]) -> Vec<f64>
+    where
+        S: Space,
+        K: Kernel,
+        M: Math<S::Real>,
+        D: Term<S>,
+        T: Term<S>,
+    {
+        let st = solver.storage();
+        let mut words = Vec::with_capacity(slots.len() * Particles::width(S::DIM));
+        for &i in slots {
+            push_record(&mut words, self.local.record(i)[0], &st, i);
+        }
+        words
+    }
 }
 
 /// Splits `words` into records and sorts them by id.
@@ -869,11 +894,7 @@ where
                 }
             };
             if done == due && index < plan.len() {
-                let st = s.storage();
-                let mut words = Vec::with_capacity(part.owned.len() * w);
-                for &i in &part.owned {
-                    push_record(&mut words, part.local.record(i)[0], &st, i);
-                }
+                let words = part.pack(s, &part.owned);
                 if comm.rank() != 0 {
                     stats.bytes_sent += 8.0 * words.len() as f64;
                 }
@@ -945,11 +966,7 @@ where
             if !(fresh && state.is_some()) && s.rebuilds_next(dt, drift2) {
                 let clock = Stopwatch::start();
                 stats.migrations += 1;
-                let st = s.storage();
-                let mut words = Vec::with_capacity(part.owned.len() * w);
-                for &i in &part.owned {
-                    push_record(&mut words, part.local.record(i)[0], &st, i);
-                }
+                let words = part.pack(s, &part.owned);
                 owned = Particles { dim, words };
                 let mut resume = s.resume_state();
                 resume.lists_fresh = false;
@@ -997,18 +1014,7 @@ where
     T: Term<S>,
     C: Comm + ?Sized,
 {
-    let st = s.storage();
-    let out: Vec<Vec<f64>> = part
-        .send
-        .iter()
-        .map(|slots| {
-            let mut words = Vec::new();
-            for &i in slots {
-                push_record(&mut words, part.local.record(i)[0], &st, i);
-            }
-            words
-        })
-        .collect();
+    let out: Vec<Vec<f64>> = part.send.iter().map(|slots| part.pack(s, slots)).collect();
     let sent = bytes_to_others(&out, comm.rank());
     let got = comm.exchange(out);
     let w = Particles::width(S::DIM);

@@ -399,6 +399,19 @@ pub fn energy_drift(outputs: &[Diagnostics], ramp: f64) -> Option<EnergyDrift> {
     })
 }
 
+/// The stop of a run whose step failed with `e` at simulated time `t`.
+fn diverged(t: f64, e: sph_core::error::Error) -> Stop {
+    let particle = match e {
+        sph_core::error::Error::Unstable { particle, .. } => Some(particle),
+        _ => None,
+    };
+    Stop {
+        t,
+        particle,
+        reason: format!("the run diverged: {e}"),
+    }
+}
+
 /// Particle state at one output time (fluid only, in creation order).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Frame {
@@ -1537,6 +1550,16 @@ impl<E: Executor> Context<'_, '_, E> {
             budget: budget.unwrap_or([0.0; 4]),
             options: Default::default(),
         };
+        // Before each step: the forces retuned to the largest speed, the
+        // ramped body force's walls set.
+        let before_step = |solver: &mut Solver<'_, S, K, M, D, T>, vmax: f64| -> Result<()> {
+            let on = f(ramp_factor(solver.time(), s.physics.gravity_ramp));
+            retune(solver.forces_mut(), vmax, on);
+            if ramped_walls {
+                solver.set_wall_gravity(body_force * on)?;
+            }
+            Ok(())
+        };
         if let Some(comm) = self.ctl.ranks {
             let setup = Setup {
                 params,
@@ -1549,14 +1572,6 @@ impl<E: Executor> Context<'_, '_, E> {
             };
             let initial = Particles::of_solver(&solver);
             let steps: Vec<(u64, f64)> = plan.iter().map(|p| (p.1, p.2)).collect();
-            let before_step = |solver: &mut Solver<'_, S, K, M, D, T>, vmax: f64| -> Result<()> {
-                let on = f(ramp_factor(solver.time(), s.physics.gravity_ramp));
-                retune(solver.forces_mut(), vmax, on);
-                if ramped_walls {
-                    solver.set_wall_gravity(body_force * on)?;
-                }
-                Ok(())
-            };
             // Rank 0: this process's solver takes every gathered state
             // and judges it as a single run judges its own.
             let mut on_output = |out: distributed::Output| -> Result<bool> {
@@ -1575,23 +1590,10 @@ impl<E: Executor> Context<'_, '_, E> {
                 self.ctl.progress.advance(plan[out.index].1);
                 record.steps = out.steps;
                 record.rank_stats = out.ranks;
-                let (diag, worst) = self.diagnostics(&solver, t_out, None);
-                record.outputs.push(diag);
                 if s.keep_particles {
-                    record.frames.push(frame(&solver, t_out));
                     record.frame_owners.push(out.owners);
                 }
-                if let Some(stop) = self.judge(out.time, &worst) {
-                    record.stop = Some(stop);
-                    return Ok(true);
-                }
-                if let Some(tol) = s.steady_tolerance {
-                    if steady(&record.outputs, tol, s.length_scale / s.velocity_scale) {
-                        record.steady = true;
-                        return Ok(true);
-                    }
-                }
-                Ok(false)
+                Ok(self.conclude_output(&mut record, &solver, t_out, out.time, None))
             };
             let ran = distributed::run::<S, K, M, D, T, _, _>(
                 comm,
@@ -1603,23 +1605,17 @@ impl<E: Executor> Context<'_, '_, E> {
                 &mut on_output,
             );
             if let Err(e) = ran {
-                // A diverged part stops the run as a single run's step would.
-                // (The particle is an index on the rank that failed.)
-                let (particle, reason) = match e {
-                    Error::Core(c) => (
-                        match c {
-                            sph_core::error::Error::Unstable { particle, .. } => Some(particle),
-                            _ => None,
-                        },
-                        format!("the run diverged: {c}"),
-                    ),
-                    Error::Diverged(why) => (None, format!("the run diverged: {why}")),
+                // A diverged part stops the run as a single run's step would
+                // (the particle is an index on the rank that failed).
+                let t = record.outputs.last().map_or(0.0, |d| d.t);
+                record.stop = Some(match e {
+                    Error::Core(c) => diverged(t, c),
+                    Error::Diverged(why) => Stop {
+                        t,
+                        particle: None,
+                        reason: format!("the run diverged: {why}"),
+                    },
                     other => return Err(other),
-                };
-                record.stop = Some(Stop {
-                    t: record.outputs.last().map_or(0.0, |d| d.t),
-                    particle,
-                    reason,
                 });
             }
             if comm.rank() == 0 {
@@ -1679,21 +1675,9 @@ impl<E: Executor> Context<'_, '_, E> {
                     break 'outputs;
                 }
                 let vmax = solver.max_speed();
-                let on = f(ramp_factor(solver.time(), s.physics.gravity_ramp));
-                retune(solver.forces_mut(), vmax, on);
-                if ramped_walls {
-                    solver.set_wall_gravity(body_force * on)?;
-                }
+                before_step(&mut solver, vmax)?;
                 if let Err(e) = solver.step_with(exec, dt) {
-                    let particle = match e {
-                        sph_core::error::Error::Unstable { particle, .. } => Some(particle),
-                        _ => None,
-                    };
-                    record.stop = Some(Stop {
-                        t: solver.time(),
-                        particle,
-                        reason: format!("the run diverged: {e}"),
-                    });
+                    record.stop = Some(diverged(solver.time(), e));
                     break 'outputs;
                 }
                 if let Some([dissipated, power, potential, body]) = budget.as_mut() {
@@ -1720,20 +1704,9 @@ impl<E: Executor> Context<'_, '_, E> {
                 k += 1;
             }
             self.ctl.progress.advance((k - first) % 64);
-            let (diag, worst) = self.diagnostics(&solver, t_out, budget.map(|b| [b[0], b[2]]));
-            record.outputs.push(diag);
-            if s.keep_particles {
-                record.frames.push(frame(&solver, t_out));
-            }
-            if let Some(stop) = self.judge(solver.time(), &worst) {
-                record.stop = Some(stop);
+            let budget = budget.map(|b| [b[0], b[2]]);
+            if self.conclude_output(&mut record, &solver, t_out, solver.time(), budget) {
                 break;
-            }
-            if let Some(tol) = s.steady_tolerance {
-                if steady(&record.outputs, tol, s.length_scale / s.velocity_scale) {
-                    record.steady = true;
-                    break;
-                }
             }
         }
         record.steps = solver.steps();
@@ -1745,6 +1718,44 @@ impl<E: Executor> Context<'_, '_, E> {
             record.state = Some(frame(&solver, solver.time()));
         }
         Ok(record)
+    }
+
+    /// Records the output at `t_out` of `solver`'s state (reached at
+    /// simulated time `t`): its diagnostics, its frame if the scene keeps
+    /// particles, and a stop or a steady state; returns whether the run
+    /// ends here.
+    fn conclude_output<S, K, M, D, T>(
+        &self,
+        record: &mut RunRecord,
+        solver: &Solver<'_, S, K, M, D, T>,
+        t_out: f64,
+        t: f64,
+        budget: Option<[f64; 2]>,
+    ) -> bool
+    where
+        S: Space,
+        K: Kernel,
+        M: Math<S::Real>,
+        D: Term<S>,
+        T: Term<S>,
+    {
+        let s = self.scene;
+        let (diag, worst) = self.diagnostics(solver, t_out, budget);
+        record.outputs.push(diag);
+        if s.keep_particles {
+            record.frames.push(frame(solver, t_out));
+        }
+        if let Some(stop) = self.judge(t, &worst) {
+            record.stop = Some(stop);
+            return true;
+        }
+        if let Some(tol) = s.steady_tolerance {
+            if steady(&record.outputs, tol, s.length_scale / s.velocity_scale) {
+                record.steady = true;
+                return true;
+            }
+        }
+        false
     }
 
     /// Refuses a scene whose estimated memory (particle storage with its
