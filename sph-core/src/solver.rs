@@ -2167,9 +2167,18 @@ where
 
     /// Time-step limits at the current state.
     pub fn limits(&self) -> Limits {
+        self.limits_at(self.vmax2, self.amax2)
+    }
+
+    /// The time-step limits this solver would give with `vmax2` its
+    /// largest squared fluid speed and `amax2` its largest squared
+    /// acceleration (for a caller that runs one scene as several solvers
+    /// and takes the maxima over all of them; [`Self::limits`] is this at
+    /// the solver's own maxima).
+    pub fn limits_at(&self, vmax2: S::Real, amax2: S::Real) -> Limits {
         let h = self.params.h.to_f64();
-        let c = (self.consts.c0 + M::sqrt(self.vmax2)).to_f64();
-        let amax_r = M::sqrt(self.amax2);
+        let c = (self.consts.c0 + M::sqrt(vmax2)).to_f64();
+        let amax_r = M::sqrt(amax2);
         let amax = amax_r.to_f64();
         Limits {
             cfl: if c > 0.0 { 0.25 * h / c } else { f64::INFINITY },

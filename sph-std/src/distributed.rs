@@ -39,13 +39,14 @@
 
 use crate::driver::Buffers;
 use crate::error::{Error, Result};
+use crate::exact::ExactSum;
 use crate::scene::Stopwatch;
 use sph_core::domain::Domain;
 use sph_core::exec::Executor;
 use sph_core::kernel::Kernel;
 use sph_core::math::Math;
 use sph_core::real::Real;
-use sph_core::solver::{Params, Resume, Solver};
+use sph_core::solver::{Limits, Params, Resume, Solver};
 use sph_core::space::{Space, VectorOps};
 use sph_core::terms::Term;
 use std::sync::{mpsc, Barrier, Mutex};
@@ -719,6 +720,72 @@ impl RankStats {
 pub type BeforeStep<'f, S, K, M, D, T> =
     dyn Fn(&mut Solver<'_, S, K, M, D, T>, f64) -> Result<()> + 'f;
 
+/// What a distributed run does on every rank after each step, once every
+/// particle's state is exact (the halo refreshed): it sees the rank's
+/// solver and [`StepDone`], and returns whether the run stops there. It may
+/// call collectives of its own, in the same sequence on every rank, and
+/// must decide on figures every rank shares (a collective's result), so
+/// that all ranks stop together.
+pub type AfterStep<'f, S, K, M, D, T> =
+    dyn FnMut(&Solver<'_, S, K, M, D, T>, &StepDone<'_>) -> Result<bool> + 'f;
+
+/// The step a distributed run just took, as [`AfterStep`] sees it.
+#[derive(Clone, Copy, Debug)]
+pub struct StepDone<'a> {
+    /// Its length (s).
+    pub dt: f64,
+    /// Its index within the current output interval, from 0.
+    pub in_interval: u64,
+    /// This rank's own particles: `(slot in the solver, id)`, in id order.
+    pub owned: &'a [(usize, usize)],
+}
+
+/// How a distributed run chooses its steps.
+pub enum Stepping<'f> {
+    /// Per output time, that many steps of that length (s).
+    Fixed(&'f [(u64, f64)]),
+    /// Per output time, steps chosen from the state: before each step
+    /// `choose(output index, time, limits)` is given the time-step limits
+    /// at the largest speed and acceleration of all ranks
+    /// ([`Solver::limits_at`] of a rank's solver) and returns the step, or
+    /// `None` once the output is reached.
+    Adaptive {
+        /// The number of output times.
+        outputs: usize,
+        /// The step for `(output index, time, limits)`.
+        choose: &'f mut dyn FnMut(usize, f64, Limits) -> Option<f64>,
+    },
+}
+
+/// Every rank's `words`, in rank order, on every rank.
+pub fn all_gather<C: Comm + ?Sized>(comm: &C, words: &[f64]) -> Vec<Vec<f64>> {
+    comm.exchange(vec![words.to_vec(); comm.size()])
+}
+
+/// The correctly rounded total over the ranks of each of `sums`: the same
+/// bits on every rank, and for any split of the summands over the ranks
+/// (each rank sends its sums' exact [`ExactSum::terms`]).
+pub fn sum_exact<C: Comm + ?Sized>(comm: &C, sums: Vec<ExactSum>) -> Vec<f64> {
+    let count = sums.len();
+    let mut words = Vec::new();
+    for s in sums {
+        let t = s.terms();
+        words.push(t.len() as f64);
+        words.extend(t);
+    }
+    let all = all_gather(comm, &words);
+    let mut lists: Vec<Vec<&[f64]>> = vec![Vec::new(); count];
+    for w in &all {
+        let mut at = 0;
+        for list in lists.iter_mut() {
+            let n = w[at] as usize;
+            list.push(&w[at + 1..at + 1 + n]);
+            at += 1 + n;
+        }
+    }
+    lists.into_iter().map(crate::exact::merge).collect()
+}
+
 /// Bytes in buffers of `f64` words bound for ranks other than `rank` (a
 /// rank's buffer to itself is a copy, not traffic).
 fn bytes_to_others(out: &[Vec<f64>], rank: usize) -> f64 {
@@ -731,25 +798,27 @@ fn bytes_to_others(out: &[Vec<f64>], rank: usize) -> f64 {
 
 /// Steps a scene's fluid `initial` (every particle, ids `0..n` in the single
 /// solver's order, as [`Particles::of_solver`] gives after set-up) on the
-/// ranks of `comm`, each rank's passes through `exec`: for each `(steps,
-/// dt)` of `plan`, that many steps of `dt`, then the particles gathered on
-/// rank 0 and handed to `on_output` there, which returns whether the run
-/// stops. Before each step `before_step` sees every rank's solver with the
-/// largest fluid speed of all ranks (the single solver's
-/// [`Solver::max_speed`]), to retune its forces.
+/// ranks of `comm`, each rank's passes through `exec`: for each output of
+/// `stepping`, its steps, then the particles gathered on rank 0 and handed
+/// to `on_output` there, which returns whether the run stops. Before each
+/// step `before_step` sees every rank's solver with the largest fluid speed
+/// of all ranks (the single solver's [`Solver::max_speed`]), to retune its
+/// forces; after it, `after_step` sees the exact state (energy sums, cheap
+/// checks) and may stop the run.
 ///
 /// # Errors
 /// [`Error::Core`] if a rank's solver refuses its part or diverges, or the
-/// error of `before_step` or `on_output` (on the rank where it arose; the
-/// others report [`Error::Diverged`] naming it).
+/// error of `before_step`, `after_step` or `on_output` (on the rank where
+/// it arose; the others report [`Error::Diverged`] naming it).
 #[allow(clippy::too_many_arguments)]
 pub fn run<S, K, M, D, T, C, E>(
     comm: &C,
     exec: &E,
     setup: &Setup<S, D, T>,
     initial: &Particles,
-    plan: &[(u64, f64)],
+    mut stepping: Stepping<'_>,
     before_step: &BeforeStep<'_, S, K, M, D, T>,
+    after_step: &mut AfterStep<'_, S, K, M, D, T>,
     on_output: &mut dyn FnMut(Output) -> Result<bool>,
 ) -> Result<()>
 where
@@ -795,9 +864,19 @@ where
     let (mut part, sent) = distribute(comm, &slabs, &owned, levels * radius);
     stats.bytes_sent += sent;
     // Steps done, the output next due and the steps it falls after.
+    let outputs = match &stepping {
+        Stepping::Fixed(plan) => plan.len(),
+        Stepping::Adaptive { outputs, .. } => *outputs,
+    };
     let mut done = 0u64;
     let mut index = 0usize;
-    let mut due = plan.first().map_or(0, |p| p.0);
+    let mut due = match &stepping {
+        Stepping::Fixed(plan) => plan.first().map_or(0, |p| p.0),
+        Stepping::Adaptive { .. } => 0,
+    };
+    // Steps in the current interval, and the step that awaits `after_step`.
+    let mut in_interval = 0u64;
+    let mut pending: Option<f64> = None;
     let mut state: Option<Resume> = None;
     let mut migrating: Option<Stopwatch> = None;
     loop {
@@ -850,6 +929,11 @@ where
         if let Some(clock) = migrating.take() {
             stats.migrate_seconds += clock.seconds();
         }
+        let own: Vec<(usize, usize)> = part
+            .owned
+            .iter()
+            .map(|&k| (k, part.local.record(k)[0] as usize))
+            .collect();
         // The records were just written: every particle's state is exact.
         let mut fresh = true;
         loop {
@@ -867,24 +951,32 @@ where
                 };
                 stats.halo_seconds += clock.seconds();
             }
-            let dt = plan.get(index).map_or(0.0, |p| p.1);
-            // One collective per step: the largest drift and speed, and
-            // whether any rank failed.
+            // A fixed step is known before the collective; an adaptive one
+            // needs the maxima first.
+            let planned = match &stepping {
+                Stepping::Fixed(plan) => Some(plan.get(index).map_or(0.0, |p| p.1)),
+                Stepping::Adaptive { .. } => None,
+            };
+            // One collective per step: the largest drift (of a fixed step),
+            // speed and acceleration, and whether any rank failed.
             let local = match (&solver, &failure) {
                 (Some(s), None) => {
-                    let v2 = s
-                        .velocities()
+                    let (v, a) = (s.velocities(), s.accelerations());
+                    let (v2, a2) = own
                         .iter()
-                        .fold(S::Real::ZERO, |m, v| m.max(v.norm2()));
-                    [s.drift_speed2(dt).to_f64(), v2.to_f64(), -1.0]
+                        .fold((S::Real::ZERO, S::Real::ZERO), |m, &(k, _)| {
+                            (m.0.max(v[k].norm2()), m.1.max(a[k].norm2()))
+                        });
+                    let drift2 = planned.map_or(0.0, |dt| s.drift_speed2(dt).to_f64());
+                    [drift2, v2.to_f64(), a2.to_f64(), -1.0]
                 }
-                _ => [0.0, 0.0, comm.rank() as f64],
+                _ => [0.0, 0.0, 0.0, comm.rank() as f64],
             };
             let clock = Stopwatch::start();
             let agreed = comm.max(&local);
             stats.reduce_seconds += clock.seconds();
             stats.bytes_sent += 8.0 * (local.len() * (comm.size() - 1)) as f64;
-            let (drift2, vmax2, failed) = (agreed[0], agreed[1], agreed[2]);
+            let (vmax2, amax2, failed) = (agreed[1], agreed[2], agreed[3]);
             let s = match solver.as_mut() {
                 Some(s) if failed < 0.0 => s,
                 _ => {
@@ -893,7 +985,42 @@ where
                     }))
                 }
             };
-            if done == due && index < plan.len() {
+            // The step just taken, now that every particle is exact; every
+            // rank learns whether any hook failed or asked to stop.
+            if let Some(dt) = pending.take() {
+                let step = StepDone {
+                    dt,
+                    in_interval: in_interval - 1,
+                    owned: &own,
+                };
+                let verdict = after_step(s, &step);
+                let code = match &verdict {
+                    Ok(false) => 0.0,
+                    Ok(true) => 1.0,
+                    Err(_) => 2.0,
+                };
+                let clock = Stopwatch::start();
+                let code = comm.max(&[code])[0];
+                stats.reduce_seconds += clock.seconds();
+                let stop = verdict?;
+                if code == 2.0 {
+                    return Err(Error::Diverged(
+                        "a rank failed after a step; the run stops with it".into(),
+                    ));
+                }
+                if stop || code == 1.0 {
+                    return Ok(());
+                }
+            }
+            let dt = match &mut stepping {
+                Stepping::Fixed(_) => planned.filter(|_| done != due),
+                Stepping::Adaptive { choose, .. } if index < outputs => {
+                    let limits = s.limits_at(S::Real::from_f64(vmax2), S::Real::from_f64(amax2));
+                    choose(index, s.time(), limits)
+                }
+                Stepping::Adaptive { .. } => None,
+            };
+            if dt.is_none() && index < outputs {
                 let words = part.pack(s, &part.owned);
                 if comm.rank() != 0 {
                     stats.bytes_sent += 8.0 * words.len() as f64;
@@ -952,14 +1079,30 @@ where
                     ));
                 }
                 index += 1;
-                if code == 1.0 || index == plan.len() {
+                in_interval = 0;
+                if code == 1.0 || index == outputs {
                     return Ok(());
                 }
-                due += plan[index].0;
+                if let Stepping::Fixed(plan) = &stepping {
+                    due += plan[index].0;
+                }
                 // The step's length changed: measure the drift again.
                 fresh = false;
                 continue;
             }
+            let Some(dt) = dt else {
+                // Every output was made.
+                return Ok(());
+            };
+            let drift2 = match planned {
+                Some(_) => agreed[0],
+                None => {
+                    let clock = Stopwatch::start();
+                    let d = comm.max(&[s.drift_speed2(dt).to_f64()])[0];
+                    stats.reduce_seconds += clock.seconds();
+                    d
+                }
+            };
             let drift2 = S::Real::from_f64(drift2);
             // A part after a migration rebuilds in its first step; it
             // migrates again only at the next rebuild.
@@ -1000,6 +1143,8 @@ where
                 continue;
             }
             done += 1;
+            in_interval += 1;
+            pending = Some(dt);
         }
     }
 }
@@ -1114,8 +1259,9 @@ mod tests {
                     &Serial,
                     &setup,
                     &initial,
-                    &[(steps, dt)],
+                    Stepping::Fixed(&[(steps, dt)]),
                     &|_, _| Ok(()),
+                    &mut |_, _| Ok(false),
                     &mut |out| {
                         assert_eq!((out.index, out.steps), (0, steps));
                         got = Some(out.particles);
@@ -1160,6 +1306,21 @@ mod tests {
     /// duration at `resolution`, and asserts the same frames and
     /// diagnostics, bit for bit (as their shortest round-trip text).
     fn same_record(name: &str, resolution: usize, fraction: f64, ranks: &[usize]) {
+        let want = same_record_with(name, resolution, fraction, ranks, |_| {});
+        assert!(want.complete(), "{name}: {:?}", want.stop);
+        assert!(want.steps >= 20, "{name}: only {} steps", want.steps);
+    }
+
+    /// As [`same_record`], with `tweak` applied to the scene; the stop, the
+    /// adaptive step's range and the energy budget (in the outputs) must
+    /// agree too. Returns the single run's record.
+    fn same_record_with(
+        name: &str,
+        resolution: usize,
+        fraction: f64,
+        ranks: &[usize],
+        tweak: fn(&mut crate::scene::Scene),
+    ) -> crate::scene::RunRecord {
         use crate::scene::{run, run_with, RunControl};
         let mut settings = (crate::cases::find(name).unwrap().defaults)();
         settings.resolution = resolution;
@@ -1168,16 +1329,21 @@ mod tests {
         settings.threads = 1;
         let mut scene = crate::cases::scene(&settings).unwrap();
         scene.keep_particles = true;
+        tweak(&mut scene);
         let silent = crate::couette::Silent;
         let want = run(&scene, &silent).unwrap();
         assert!(
-            want.complete() && want.frames.len() == 2,
-            "{name}: {:?}",
-            want.stop
+            want.stop.is_some() || want.frames.len() >= 2,
+            "{name}: {:?}, {} frames",
+            want.stop,
+            want.frames.len()
         );
-        assert!(want.steps >= 20, "{name}: only {} steps", want.steps);
-        let text =
-            |r: &crate::scene::RunRecord| format!("{:?} {:?} {}", r.frames, r.outputs, r.steps);
+        let text = |r: &crate::scene::RunRecord| {
+            format!(
+                "{:?} {:?} {} {:?} {:?}",
+                r.frames, r.outputs, r.steps, r.stop, r.dt_range
+            )
+        };
         for &n in ranks {
             let got = Threads::run(n, |comm| {
                 let mut none =
@@ -1193,6 +1359,42 @@ mod tests {
                 "{name} on {n} ranks"
             );
         }
+        want
+    }
+
+    #[test]
+    fn an_adaptive_step_and_the_energy_budget_on_ranks_are_the_single_run_bitwise() {
+        // The dam break's defaults: adaptive step, energy budget, wall
+        // particles and a free surface.
+        let want = same_record_with("dam-break", 10, 0.05, &[2, 3], |_| {});
+        assert!(want.complete() && want.steps >= 20, "{want:?}");
+        let [lo, hi] = want.dt_range.unwrap();
+        assert!(lo > 0.0 && hi >= lo);
+        assert!(want.outputs.iter().all(|d| d.energy.is_some()));
+        // Taylor-Green with both switched on: periodic in both axes.
+        let want = same_record_with("taylor-green", 16, 0.05, &[2, 4], |s| {
+            s.physics.adaptive_dt = true;
+            s.physics.energy_budget = true;
+        });
+        assert!(want.complete() && want.steps >= 20, "{want:?}");
+        let e = want.outputs.last().unwrap().energy.unwrap();
+        // The budget closes: the viscous dissipation is what the kinetic
+        // energy lost (to the time integration's error).
+        assert!(e.dissipated_energy > 0.0, "{e:?}");
+    }
+
+    #[test]
+    fn a_monitor_stop_between_outputs_on_ranks_is_the_single_runs() {
+        // A Mach limit below the vortex's speed: the cheap check between
+        // outputs stops the run at its first check, naming the fastest
+        // particle (by id).
+        let want = same_record_with("taylor-green", 16, 0.05, &[2, 3], |s| {
+            s.monitor.max_mach = 1e-3;
+            s.monitor.every = 7;
+        });
+        let stop = want.stop.expect("the monitor stops the run");
+        assert!(stop.particle.is_some(), "{stop:?}");
+        assert_eq!(want.steps, 7, "{stop:?}");
     }
 
     #[test]

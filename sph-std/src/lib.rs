@@ -23,6 +23,7 @@ pub mod couette;
 pub mod distributed;
 pub mod driver;
 pub mod error;
+pub mod exact;
 pub mod output;
 pub mod plot;
 pub mod progress;

@@ -13,6 +13,7 @@
 //! Adding a case is one file in `cases/` plus one line in its table; the
 //! dispatch here never changes.
 
+use std::cell::Cell;
 use std::sync::Arc;
 
 use serde::Serialize;
@@ -38,11 +39,13 @@ use crate::checkpoint::Checkpoint;
 use crate::config::{DensityMode, KernelName, MathBackend, Precision, ViscosityForm};
 pub use crate::config::{EosForm, PressureForm, WallBoundary, WallPressure};
 use crate::couette::{Progress, SKIN};
-use crate::distributed::{self, Comm, Particles, Setup};
+use crate::distributed::{self, Comm, Particles, Setup, StepDone, Stepping};
 use crate::driver::Buffers;
 #[cfg(feature = "full")]
 use crate::driver::Rayon;
 use crate::error::{Error, Result};
+use crate::exact::ExactSum;
+use sph_core::solver::Limits;
 
 /// A velocity field `v(x, t)` in global coordinates (unused components zero).
 pub type VectorField = Arc<dyn Fn([f64; 3], f64) -> [f64; 3] + Send + Sync>;
@@ -546,8 +549,8 @@ pub struct RunControl<'a> {
     pub refresh: bool,
     /// Run on these ranks ([`crate::distributed`]; `sph run --mpi`): the
     /// same particles and figures as one process, bit for bit, with the
-    /// record complete on rank 0 only. A run with checkpoints, a pause, a
-    /// resume, an adaptive step or an energy budget is refused.
+    /// record complete on rank 0 only. A run with checkpoints, a pause or a
+    /// resume is refused.
     pub ranks: Option<&'a (dyn Comm + Sync)>,
 }
 
@@ -595,14 +598,6 @@ pub fn run_with(scene: &Scene, ctl: &mut RunControl<'_>) -> Result<RunRecord> {
             (ctl.resume.is_some(), "a resumed run"),
             (ctl.checkpoint_every.is_some(), "checkpoints"),
             (ctl.pause_after.is_some(), "a paused run"),
-            (
-                scene.physics.adaptive_dt,
-                "an adaptive time step (adaptive_dt)",
-            ),
-            (
-                scene.physics.energy_budget,
-                "the energy budget (energy_budget)",
-            ),
         ];
         if let Some((_, what)) = refused.iter().find(|r| r.0) {
             return Err(Error::config(
@@ -1429,15 +1424,28 @@ impl<E: Executor> Context<'_, '_, E> {
             AxisSpec::Periodic => s.body_force[a],
             AxisSpec::Walls(..) => 0.0,
         });
+        // Each rate is an exact sum over the particles (`slots`: all, or a
+        // rank's own), so that it has the same bits for any split.
+        let local_rates =
+            |solver: &Solver<'_, S, K, M, D, T>, slots: &[usize]| -> Result<[ExactSum; 2]> {
+                let k = ramp_factor(solver.time(), s.physics.gravity_ramp);
+                let (m, v) = (solver.masses(), solver.velocities());
+                let mut body = ExactSum::new();
+                for &i in slots {
+                    let v = vec3::<S>(v[i]);
+                    body.add(m[i].to_f64() * k * (0..3).map(|a| periodic_g[a] * v[a]).sum::<f64>());
+                }
+                let power = dissipation_power(solver, &dissipation(solver.forces()), exec, slots)?;
+                Ok([power, body])
+            };
+        let every_slot: Vec<usize> = if s.physics.energy_budget {
+            (0..n).collect()
+        } else {
+            Vec::new()
+        };
         let rates = |solver: &Solver<'_, S, K, M, D, T>| -> Result<[f64; 2]> {
-            let k = ramp_factor(solver.time(), s.physics.gravity_ramp);
-            let mut body = 0.0;
-            for (m, v) in solver.masses().iter().zip(solver.velocities()) {
-                let v = vec3::<S>(*v);
-                body += m.to_f64() * k * (0..3).map(|a| periodic_g[a] * v[a]).sum::<f64>();
-            }
-            let power = dissipation_power(solver, &dissipation(solver.forces()), exec)?;
-            Ok([power, body])
+            let [mut power, mut body] = local_rates(solver, &every_slot)?;
+            Ok([power.value(), body.value()])
         };
         let mut budget = match (s.physics.energy_budget, resume) {
             (false, _) => None,
@@ -1561,6 +1569,73 @@ impl<E: Executor> Context<'_, '_, E> {
             Ok(())
         };
         if let Some(comm) = self.ctl.ranks {
+            // Shared by the hooks below: the budget (every rank integrates
+            // it from the same exact sums), a stop between outputs, the
+            // adaptive step's range.
+            let budget = Cell::new(budget);
+            let stopped: Cell<Option<(Stop, u64)>> = Cell::new(None);
+            let dt_range = Cell::new(record.dt_range);
+            // The full solver's viscous limit: a rank's own estimate sees
+            // only its part.
+            let viscous = solver.limits().viscous;
+            let mut choose = |index: usize, time: f64, mut l: Limits| -> Option<f64> {
+                l.viscous = viscous;
+                let mut range = dt_range.get();
+                let dt = adaptive_step(
+                    s.physics.dt_factor * l.min(),
+                    plan[index].0 - time,
+                    &mut range,
+                );
+                dt_range.set(range);
+                dt
+            };
+            let steps_plan: Vec<(u64, f64)> = plan.iter().map(|p| (p.1, p.2)).collect();
+            let stepping = if adaptive {
+                Stepping::Adaptive {
+                    outputs: plan.len(),
+                    choose: &mut choose,
+                }
+            } else {
+                Stepping::Fixed(&steps_plan)
+            };
+            let mut after_step =
+                |solver: &Solver<'_, S, K, M, D, T>, done: &StepDone<'_>| -> Result<bool> {
+                    if let Some([dissipated, power, potential, body]) = budget.get() {
+                        let slots: Vec<usize> = done.owned.iter().map(|o| o.0).collect();
+                        // Every rank joins the sum, a failed one with NaN.
+                        let (sums, failed) = match local_rates(solver, &slots) {
+                            Ok(r) => (r, None),
+                            Err(e) => {
+                                let nan = || {
+                                    let mut x = ExactSum::new();
+                                    x.add(f64::NAN);
+                                    x
+                                };
+                                ([nan(), nan()], Some(e))
+                            }
+                        };
+                        let totals = distributed::sum_exact(comm, sums.into());
+                        if let Some(e) = failed {
+                            return Err(e);
+                        }
+                        let (p, b) = (totals[0], totals[1]);
+                        let dt = done.dt;
+                        budget.set(Some([
+                            dissipated - 0.5 * dt * (power + p),
+                            p,
+                            potential - 0.5 * dt * (body + b),
+                            b,
+                        ]));
+                    }
+                    if (done.in_interval + 1).is_multiple_of(every) {
+                        let worst = self.check_cheap_ranked(comm, solver, done.owned);
+                        if let Some(stop) = self.judge(solver.time(), &worst) {
+                            stopped.set(Some((stop, solver.steps())));
+                            return Ok(true);
+                        }
+                    }
+                    Ok(false)
+                };
             let setup = Setup {
                 params,
                 domain,
@@ -1571,7 +1646,6 @@ impl<E: Executor> Context<'_, '_, E> {
                 ghost_room: capacity - n,
             };
             let initial = Particles::of_solver(&solver);
-            let steps: Vec<(u64, f64)> = plan.iter().map(|p| (p.1, p.2)).collect();
             // Rank 0: this process's solver takes every gathered state
             // and judges it as a single run judges its own.
             let mut on_output = |out: distributed::Output| -> Result<bool> {
@@ -1593,17 +1667,24 @@ impl<E: Executor> Context<'_, '_, E> {
                 if s.keep_particles {
                     record.frame_owners.push(out.owners);
                 }
-                Ok(self.conclude_output(&mut record, &solver, t_out, out.time, None))
+                let budget = budget.get().map(|b| [b[0], b[2]]);
+                Ok(self.conclude_output(&mut record, &solver, t_out, out.time, budget))
             };
             let ran = distributed::run::<S, K, M, D, T, _, _>(
                 comm,
                 exec,
                 &setup,
                 &initial,
-                &steps,
+                stepping,
                 &before_step,
+                &mut after_step,
                 &mut on_output,
             );
+            record.dt_range = dt_range.get();
+            if let Some((stop, steps)) = stopped.take() {
+                record.stop = Some(stop);
+                record.steps = steps;
+            }
             if let Err(e) = ran {
                 // A diverged part stops the run as a single run's step would
                 // (the particle is an index on the rank that failed).
@@ -1638,18 +1719,9 @@ impl<E: Executor> Context<'_, '_, E> {
                 // halved before that rather than leave a sliver).
                 let dt = if adaptive {
                     let want = s.physics.dt_factor * solver.limits().min();
-                    let remaining = t_out - solver.time();
-                    if remaining <= 1e-6 * want {
-                        break;
-                    }
-                    let [lo, hi] = record.dt_range.unwrap_or([want, want]);
-                    record.dt_range = Some([lo.min(want), hi.max(want)]);
-                    if remaining <= want {
-                        remaining
-                    } else if remaining < 2.0 * want {
-                        0.5 * remaining
-                    } else {
-                        want
+                    match adaptive_step(want, t_out - solver.time(), &mut record.dt_range) {
+                        Some(dt) => dt,
+                        None => break,
                     }
                 } else if k < steps {
                     fixed_dt
@@ -1814,6 +1886,43 @@ impl<E: Executor> Context<'_, '_, E> {
         self.judge(solver.time(), &worst)
     }
 
+    /// [`Self::check_cheap`]'s figures over every rank's own particles
+    /// (`owned`: slot and id), on every rank: the same values and particle
+    /// ids as one solver's.
+    fn check_cheap_ranked<S, K, M, D, T>(
+        &self,
+        comm: &(dyn Comm + Sync),
+        solver: &Solver<'_, S, K, M, D, T>,
+        owned: &[(usize, usize)],
+    ) -> Worst
+    where
+        S: Space,
+        K: Kernel,
+        M: Math<S::Real>,
+        D: Term<S>,
+        T: Term<S>,
+    {
+        let (rho0, c0) = (self.scene.rho0, self.scene.physics.sound_speed);
+        let (rho, v) = (solver.densities(), solver.velocities());
+        let density = worst_of(
+            owned
+                .iter()
+                .map(|&(k, id)| ((rho[k].to_f64() / rho0 - 1.0).abs(), id)),
+        );
+        let mach = worst_of(
+            owned
+                .iter()
+                .map(|&(k, id)| (v[k].norm2().to_f64().sqrt() / c0, id)),
+        );
+        let all =
+            distributed::all_gather(comm, &[density.0, density.1 as f64, mach.0, mach.1 as f64]);
+        Worst {
+            spacing: None,
+            density: worst_of(all.iter().map(|w| (w[0], w[1] as usize))),
+            mach: worst_of(all.iter().map(|w| (w[2], w[3] as usize))),
+        }
+    }
+
     fn judge(&self, t: f64, worst: &Worst) -> Option<Stop> {
         let m = self.scene.monitor;
         let (dev, mach) = (worst.density, worst.mach);
@@ -1939,14 +2048,15 @@ impl<E: Executor> Context<'_, '_, E> {
 
 /// The rate `sum m (v . a + P / rho^2 Drho)` at which the terms `terms`
 /// (the dissipative part of the force group) change the mechanical and
-/// internal energy, on the solver's current state; each particle's share is
-/// computed in parallel, the sum is taken in particle order (the same bits
-/// for any thread count).
+/// internal energy, over the fluid particles at `slots`, on the solver's
+/// current state; each particle's share is computed in parallel, their sum
+/// is exact (the same bits for any thread count or split over ranks).
 fn dissipation_power<S, K, M, D, T, X, E>(
     solver: &Solver<'_, S, K, M, D, T>,
     terms: &X,
     exec: &E,
-) -> Result<f64>
+    slots: &[usize],
+) -> Result<ExactSum>
 where
     S: Space,
     K: Kernel,
@@ -1956,11 +2066,11 @@ where
     X: Term<S>,
     E: Executor,
 {
-    let mut share = vec![0.0; solver.n_fluid()];
+    let mut share = vec![0.0; slots.len()];
     exec.run(&mut share[..], &|start, out: &mut [f64]| {
         let (mut dv, mut drho) = ([S::Vector::zero()], [S::Real::ZERO]);
         for (k, o) in out.iter_mut().enumerate() {
-            let i = start + k;
+            let i = slots[start + k];
             solver.rates_range_of(terms, i, &mut dv, &mut drho)?;
             let rho = solver.densities()[i].to_f64();
             let p = solver.pressures()[i].to_f64();
@@ -1969,7 +2079,48 @@ where
         }
         Ok(())
     })?;
-    Ok(share.iter().sum())
+    let mut sum = ExactSum::new();
+    for x in share {
+        sum.add(x);
+    }
+    Ok(sum)
+}
+
+/// The adaptive step towards an output `remaining` seconds ahead when the
+/// state allows `want`: `want`, shortened to land on the output (and halved
+/// before that rather than leave a sliver), or `None` once the output is
+/// reached; `range` keeps the smallest and largest `want` seen.
+fn adaptive_step(want: f64, remaining: f64, range: &mut Option<[f64; 2]>) -> Option<f64> {
+    if remaining <= 1e-6 * want {
+        return None;
+    }
+    let [lo, hi] = range.unwrap_or([want, want]);
+    *range = Some([lo.min(want), hi.max(want)]);
+    Some(if remaining <= want {
+        remaining
+    } else if remaining < 2.0 * want {
+        0.5 * remaining
+    } else {
+        want
+    })
+}
+
+/// The largest of `(value, id)` pairs as [`worst`] takes it over ids in
+/// order: a NaN wins (the last one), else the largest value (the first
+/// one), else `(0, 0)`.
+fn worst_of(pairs: impl Iterator<Item = (f64, usize)>) -> (f64, usize) {
+    let mut best = (0.0f64, 0usize);
+    for (x, i) in pairs {
+        let better = if x.is_nan() {
+            !best.0.is_nan() || i > best.1
+        } else {
+            !best.0.is_nan() && (x > best.0 || (x == best.0 && x > 0.0 && i < best.1))
+        };
+        if better {
+            best = (x, i);
+        }
+    }
+    best
 }
 
 /// Outputs averaged in each window of the steady-state test.

@@ -14,6 +14,8 @@ cases=(
   "couette --resolution 24 --t-end 0.05 --output-interval 0.025"
   "taylor-green --resolution 32 --t-end 0.05 --output-interval 0.025"
   "lid-driven-cavity --resolution 24 --t-end 0.2 --output-interval 0.1"
+  # Adaptive step, energy budget, wall particles, a free surface.
+  "dam-break --resolution 12 --t-end 0.1 --output-interval 0.05"
 )
 # summary.json without the keys that depend on the machine or the run's
 # layout (timing, threads, ranks, provenance).
