@@ -37,9 +37,10 @@ def efficiency(n, p, dim, layout):
     c = c2 if dim == 2 else c3
     h = halo(n, p, dim, layout)
     compute = c * (n / p + h)
-    # Per step: the halo refresh and the drift maximum, each an all-to-all
-    # of counts and one of data (latency ~ P messages), plus the bytes.
-    comm = 4 * alpha * (p - 1) + h * record[dim] / bandwidth if p > 1 else 0.0
+    # Per step: the halo refresh, the drift maximum and the after-step
+    # verdict, each an all-to-all of counts and one of data (latency ~ P
+    # messages), plus the bytes.
+    comm = 6 * alpha * (p - 1) + h * record[dim] / bandwidth if p > 1 else 0.0
     return c * n / (p * (compute + comm)), h, comm / (compute + comm)
 
 

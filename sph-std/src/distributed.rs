@@ -1105,8 +1105,10 @@ where
             };
             let drift2 = S::Real::from_f64(drift2);
             // A part after a migration rebuilds in its first step; it
-            // migrates again only at the next rebuild.
-            if !(fresh && state.is_some()) && s.rebuilds_next(dt, drift2) {
+            // migrates again only at the next rebuild. A single rank owns
+            // everything: its solver rebuilds its own lists, as one
+            // process does.
+            if comm.size() > 1 && !(fresh && state.is_some()) && s.rebuilds_next(dt, drift2) {
                 let clock = Stopwatch::start();
                 stats.migrations += 1;
                 let words = part.pack(s, &part.owned);
