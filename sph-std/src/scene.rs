@@ -1907,13 +1907,9 @@ impl<E: Executor> Context<'_, '_, E> {
         let density = worst_of(
             owned
                 .iter()
-                .map(|&(k, id)| ((rho[k].to_f64() / rho0 - 1.0).abs(), id)),
+                .map(|&(k, id)| (density_deviation(rho[k], rho0), id)),
         );
-        let mach = worst_of(
-            owned
-                .iter()
-                .map(|&(k, id)| (v[k].norm2().to_f64().sqrt() / c0, id)),
-        );
+        let mach = worst_of(owned.iter().map(|&(k, id)| (mach::<S>(v[k], c0), id)));
         let all =
             distributed::all_gather(comm, &[density.0, density.1 as f64, mach.0, mach.1 as f64]);
         Worst {
@@ -2183,8 +2179,18 @@ where
         solver
             .densities()
             .iter()
-            .map(|r| (r.to_f64() / rho0 - 1.0).abs()),
+            .map(|r| density_deviation(*r, rho0)),
     )
+}
+
+/// `|rho / rho0 - 1|`, the monitor's density figure of one particle.
+fn density_deviation<R: Real>(rho: R, rho0: f64) -> f64 {
+    (rho.to_f64() / rho0 - 1.0).abs()
+}
+
+/// `|v| / c0`, the monitor's Mach number of one particle.
+fn mach<S: Space>(v: S::Vector, c0: f64) -> f64 {
+    v.norm2().to_f64().sqrt() / c0
 }
 
 fn max_mach<S, K, M, D, T>(solver: &Solver<'_, S, K, M, D, T>, c0: f64) -> (f64, usize)
@@ -2195,12 +2201,7 @@ where
     D: Term<S>,
     T: Term<S>,
 {
-    worst(
-        solver
-            .velocities()
-            .iter()
-            .map(|v| v.norm2().to_f64().sqrt() / c0),
-    )
+    worst(solver.velocities().iter().map(|v| mach::<S>(*v, c0)))
 }
 
 fn frame<S, K, M, D, T>(solver: &Solver<'_, S, K, M, D, T>, t: f64) -> Frame
