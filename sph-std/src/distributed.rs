@@ -786,6 +786,23 @@ pub fn sum_exact<C: Comm + ?Sized>(comm: &C, sums: Vec<ExactSum>) -> Vec<f64> {
     lists.into_iter().map(crate::exact::merge).collect()
 }
 
+/// Every rank's `verdict` (go on, stop, or an error) made one, in one max
+/// collective: this rank's own error; else [`Error::Diverged`] saying
+/// `failed` if another rank's failed; else whether any rank asked to stop.
+fn agree<C: Comm + ?Sized>(comm: &C, verdict: Result<bool>, failed: &str) -> Result<bool> {
+    let code = match &verdict {
+        Ok(false) => 0.0,
+        Ok(true) => 1.0,
+        Err(_) => 2.0,
+    };
+    let code = comm.max(&[code])[0];
+    let stop = verdict?;
+    if code == 2.0 {
+        return Err(Error::Diverged(format!("{failed}; the run stops with it")));
+    }
+    Ok(stop || code == 1.0)
+}
+
 /// Bytes in buffers of `f64` words bound for ranks other than `rank` (a
 /// rank's buffer to itself is a copy, not traffic).
 fn bytes_to_others(out: &[Vec<f64>], rank: usize) -> f64 {
@@ -994,21 +1011,10 @@ where
                     owned: &own,
                 };
                 let verdict = after_step(s, &step);
-                let code = match &verdict {
-                    Ok(false) => 0.0,
-                    Ok(true) => 1.0,
-                    Err(_) => 2.0,
-                };
                 let clock = Stopwatch::start();
-                let code = comm.max(&[code])[0];
+                let stop = agree(comm, verdict, "a rank failed after a step")?;
                 stats.reduce_seconds += clock.seconds();
-                let stop = verdict?;
-                if code == 2.0 {
-                    return Err(Error::Diverged(
-                        "a rank failed after a step; the run stops with it".into(),
-                    ));
-                }
-                if stop || code == 1.0 {
+                if stop {
                     return Ok(());
                 }
             }
@@ -1066,21 +1072,10 @@ where
                 } else {
                     Ok(false)
                 };
-                let code = match &verdict {
-                    Ok(false) => 0.0,
-                    Ok(true) => 1.0,
-                    Err(_) => 2.0,
-                };
-                let code = comm.max(&[code])[0];
-                verdict?;
-                if code == 2.0 {
-                    return Err(Error::Diverged(
-                        "rank 0 failed at an output; the run stops with it".into(),
-                    ));
-                }
+                let stop = agree(comm, verdict, "rank 0 failed at an output")?;
                 index += 1;
                 in_interval = 0;
-                if code == 1.0 || index == outputs {
+                if stop || index == outputs {
                     return Ok(());
                 }
                 if let Stepping::Fixed(plan) = &stepping {
@@ -1309,7 +1304,11 @@ mod tests {
     /// diagnostics, bit for bit (as their shortest round-trip text).
     fn same_record(name: &str, resolution: usize, fraction: f64, ranks: &[usize]) {
         let want = same_record_with(name, resolution, fraction, ranks, |_| {});
-        assert!(want.complete(), "{name}: {:?}", want.stop);
+        assert!(
+            want.complete() && want.frames.len() == 2,
+            "{name}: {:?}",
+            want.stop
+        );
         assert!(want.steps >= 20, "{name}: only {} steps", want.steps);
     }
 

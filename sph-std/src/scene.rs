@@ -1600,7 +1600,7 @@ impl<E: Executor> Context<'_, '_, E> {
             };
             let mut after_step =
                 |solver: &Solver<'_, S, K, M, D, T>, done: &StepDone<'_>| -> Result<bool> {
-                    if let Some([dissipated, power, potential, body]) = budget.get() {
+                    if let Some(before) = budget.get() {
                         let slots: Vec<usize> = done.owned.iter().map(|o| o.0).collect();
                         // Every rank joins the sum, a failed one with NaN.
                         let (sums, failed) = match local_rates(solver, &slots) {
@@ -1618,14 +1618,8 @@ impl<E: Executor> Context<'_, '_, E> {
                         if let Some(e) = failed {
                             return Err(e);
                         }
-                        let (p, b) = (totals[0], totals[1]);
-                        let dt = done.dt;
-                        budget.set(Some([
-                            dissipated - 0.5 * dt * (power + p),
-                            p,
-                            potential - 0.5 * dt * (body + b),
-                            b,
-                        ]));
+                        let rates = [totals[0], totals[1]];
+                        budget.set(Some(integrate_budget(before, done.dt, rates)));
                     }
                     if (done.in_interval + 1).is_multiple_of(every) {
                         let worst = self.check_cheap_ranked(comm, solver, done.owned);
@@ -1752,11 +1746,8 @@ impl<E: Executor> Context<'_, '_, E> {
                     record.stop = Some(diverged(solver.time(), e));
                     break 'outputs;
                 }
-                if let Some([dissipated, power, potential, body]) = budget.as_mut() {
-                    let [p, b] = rates(&solver)?;
-                    *dissipated -= 0.5 * dt * (*power + p);
-                    *potential -= 0.5 * dt * (*body + b);
-                    (*power, *body) = (p, b);
+                if let Some(b) = budget.as_mut() {
+                    *b = integrate_budget(*b, dt, rates(&solver)?);
                 }
                 if k % 64 == 63 {
                     self.ctl.progress.advance(64);
@@ -2082,6 +2073,19 @@ where
     Ok(sum)
 }
 
+/// The energy budget `[dissipated, power, potential, body]` after a step of
+/// `dt` whose end has the rates `[power, body]`: both integrals advanced by
+/// the trapezoidal rule, the rates kept for the next step.
+fn integrate_budget(b: [f64; 4], dt: f64, [p, w]: [f64; 2]) -> [f64; 4] {
+    let [dissipated, power, potential, body] = b;
+    [
+        dissipated - 0.5 * dt * (power + p),
+        p,
+        potential - 0.5 * dt * (body + w),
+        w,
+    ]
+}
+
 /// The adaptive step towards an output `remaining` seconds ahead when the
 /// state allows `want`: `want`, shortened to land on the output (and halved
 /// before that rather than leave a sliver), or `None` once the output is
@@ -2101,9 +2105,10 @@ fn adaptive_step(want: f64, remaining: f64, range: &mut Option<[f64; 2]>) -> Opt
     })
 }
 
-/// The largest of `(value, id)` pairs as [`worst`] takes it over ids in
-/// order: a NaN wins (the last one), else the largest value (the first
-/// one), else `(0, 0)`.
+/// The largest of `(value, id)` pairs, in any order of ids: a NaN wins
+/// (the one of largest id), else the largest value (the smallest id), else
+/// `(0, 0)`. Over ids in increasing order this is a scan that keeps a value
+/// only if it is larger or NaN.
 fn worst_of(pairs: impl Iterator<Item = (f64, usize)>) -> (f64, usize) {
     let mut best = (0.0f64, 0usize);
     for (x, i) in pairs {
@@ -2155,13 +2160,7 @@ struct Worst {
 
 /// The largest value and its index (a NaN counts as largest).
 fn worst(values: impl Iterator<Item = f64>) -> (f64, usize) {
-    let mut best = (0.0f64, 0usize);
-    for (i, x) in values.enumerate() {
-        if x > best.0 || x.is_nan() {
-            best = (x, i);
-        }
-    }
-    best
+    worst_of(values.enumerate().map(|(i, x)| (x, i)))
 }
 
 fn max_density_deviation<S, K, M, D, T>(
