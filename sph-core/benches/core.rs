@@ -7,7 +7,10 @@
 //!   the crossover;
 //! - one force pass (pressure + Morris) over a disordered 2D box;
 //! - whole steps of `sph bench`'s 2D box, summation or continuity density,
-//!   `f64` or `f32` (`-- steps`).
+//!   `f64` or `f32` (`-- steps`), and the `f64` summation step on libm's
+//!   square root against the compiler's (`summation_f64_host`: the same
+//!   bits; build with `RUSTFLAGS="-C target-cpu=native"` to see what libm's
+//!   inline assembly costs in AVX code).
 
 use divan::{black_box, Bencher};
 use sph_core::kernel::SmoothingKernel;
@@ -248,12 +251,46 @@ mod steps {
     /// Particles, as a 200 x 200 lattice.
     const SIDE: usize = 200;
 
+    /// Host square root (the compiler's intrinsic, correctly rounded as
+    /// libm's), libm for the rest.
+    #[derive(Clone, Copy, Debug, Default)]
+    struct Host;
+    impl Math<f64> for Host {
+        const NAME: &'static str = "host";
+        #[inline(always)]
+        fn sqrt(x: f64) -> f64 {
+            x.sqrt()
+        }
+        #[inline(always)]
+        fn exp(x: f64) -> f64 {
+            <Libm as Math<f64>>::exp(x)
+        }
+        #[inline(always)]
+        fn powf(x: f64, y: f64) -> f64 {
+            <Libm as Math<f64>>::powf(x, y)
+        }
+        #[inline(always)]
+        fn floor(x: f64) -> f64 {
+            <Libm as Math<f64>>::floor(x)
+        }
+    }
+
     fn run<S, D, T>(bencher: Bencher, density: D, forces: T)
     where
         S: Space,
         D: Term<S>,
         T: Term<S>,
         Libm: Math<S::Real>,
+    {
+        run_with::<S, Libm, D, T>(bencher, density, forces)
+    }
+
+    fn run_with<S, M, D, T>(bencher: Bencher, density: D, forces: T)
+    where
+        S: Space,
+        M: Math<S::Real>,
+        D: Term<S>,
+        T: Term<S>,
     {
         let n = SIDE * SIDE;
         let dx = 1.0 / SIDE as f64;
@@ -270,7 +307,7 @@ mod steps {
             .and_then(|d| d.with_periodic(1))
             .unwrap();
         let h = f(beta * dx);
-        let cells = Solver::<S, CubicSpline, Libm, D, T>::cells_needed(&domain, h).unwrap();
+        let cells = Solver::<S, CubicSpline, M, D, T>::cells_needed(&domain, h).unwrap();
         let r = (1.0 + skin) * 2.0 * beta;
         let width = (1.5 * std::f64::consts::PI * r * r).ceil() as usize + 8;
         let mut state = 0x5eed_1234_abcd_0001u64;
@@ -295,15 +332,9 @@ mod steps {
             p0: S::Real::ZERO,
         };
         let params = Params::new(h, eos).with_reorder_every(1).with_skin(f(skin));
-        let mut solver = Solver::<S, CubicSpline, Libm, D, T>::new(
-            params,
-            domain,
-            b.storage(),
-            n,
-            density,
-            forces,
-        )
-        .unwrap();
+        let mut solver =
+            Solver::<S, CubicSpline, M, D, T>::new(params, domain, b.storage(), n, density, forces)
+                .unwrap();
         let dt = 0.5 * solver.limits().min();
         for _ in 0..300 {
             solver.step(dt).unwrap();
@@ -317,6 +348,16 @@ mod steps {
     #[divan::bench]
     fn summation_f64(bencher: Bencher) {
         run::<D2<f64>, _, _>(
+            bencher,
+            SummationDensity,
+            (PressureGradient, MorrisViscosity { mu: 1e-3 }),
+        );
+    }
+
+    /// The default with the host's square root.
+    #[divan::bench]
+    fn summation_f64_host(bencher: Bencher) {
+        run_with::<D2<f64>, Host, _, _>(
             bencher,
             SummationDensity,
             (PressureGradient, MorrisViscosity { mu: 1e-3 }),

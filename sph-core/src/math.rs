@@ -9,6 +9,16 @@
 //! |---|---|---|
 //! | [`Libm`] | `f32`, `f64` | correctly rounded or within an ulp or two; same bits on every target |
 //! | [`Micromath`] | `f32` only | fast approximations: `sqrt` is a few percent off (see the crate docs) |
+//!
+//! On x86-64, `libm` computes the square root with inline assembly in the
+//! legacy SSE encoding. In a build for a CPU with AVX (`-C
+//! target-cpu=native`) the surrounding code is VEX-encoded and each call
+//! pays an encoding transition: the 2D box's `f64` step measured 20 times
+//! slower on an AVX-512 Xeon (`cargo bench -p sph-core --bench core --
+//! steps::summation_f64`, where `summation_f64_host` is the same step on
+//! the compiler's square root). A std program can implement [`Math`] with
+//! `f64::sqrt` and libm for the rest: IEEE square roots are correctly
+//! rounded, so the bits are the same (`sph_std::math::Host` does this).
 
 use core::fmt::Debug;
 

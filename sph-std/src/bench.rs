@@ -21,10 +21,10 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Mutex;
 use std::time::Instant;
 
+use crate::math::Host;
 use serde::Serialize;
 use sph_core::exec::{Executor, Serial};
 use sph_core::kernel::CubicSpline;
-use sph_core::math::Libm;
 use sph_core::prelude::{
     Continuity, Domain, Eos, MorrisViscosity, Params, PressureGradient, Side, Solver, Space,
     SummationDensity, Term, Vector, VectorOps, Wall, D2, D3,
@@ -327,7 +327,7 @@ where
 fn timed<S, E, D, T>(
     cfg: &BenchConfig,
     exec: &E,
-    solver: &mut Solver<'_, S, CubicSpline, Libm, D, T>,
+    solver: &mut Solver<'_, S, CubicSpline, Host, D, T>,
     bytes_per_particle: f64,
 ) -> Result<BenchReport>
 where
@@ -335,7 +335,7 @@ where
     E: Executor,
     D: Term<S>,
     T: Term<S>,
-    Libm: sph_core::math::Math<S::Real>,
+    Host: sph_core::math::Math<S::Real>,
 {
     let dt = 0.5 * solver.limits().min();
     for _ in 0..cfg.warmup {
@@ -414,7 +414,7 @@ pub type BoxForces = (PressureGradient, MorrisViscosity<f64>);
 pub fn box_scene<S>(n: usize, options: BoxOptions) -> Result<BoxScene<S>>
 where
     S: Space<Real = f64>,
-    Libm: sph_core::math::Math<S::Real>,
+    Host: sph_core::math::Math<S::Real>,
 {
     let d = S::DIM;
     let side = (n as f64).powf(1.0 / d as f64).round().max(4.0) as usize;
@@ -434,7 +434,7 @@ where
         }
     }
     let cells =
-        Solver::<S, CubicSpline, Libm, SummationDensity, BoxForces>::cells_needed(&domain, h)?;
+        Solver::<S, CubicSpline, Host, SummationDensity, BoxForces>::cells_needed(&domain, h)?;
     let skin = options.skin.unwrap_or(0.0);
     let spare = if options.walls {
         2 * n / side * ((2.0 * options.beta * (1.0 + skin)).ceil() as usize + 1)
@@ -497,12 +497,12 @@ pub fn box_forces() -> BoxForces {
 }
 
 /// The solver type of a [`BoxScene`].
-pub type BoxSolver<'a, S> = Solver<'a, S, CubicSpline, Libm, SummationDensity, BoxForces>;
+pub type BoxSolver<'a, S> = Solver<'a, S, CubicSpline, Host, SummationDensity, BoxForces>;
 
 impl<S> BoxScene<S>
 where
     S: Space<Real = f64>,
-    Libm: sph_core::math::Math<S::Real>,
+    Host: sph_core::math::Math<S::Real>,
 {
     /// A solver over the scene's buffers, set up through `exec`.
     ///
@@ -523,7 +523,7 @@ where
         exec: &E,
         density: D,
         forces: T,
-    ) -> Result<Solver<'_, S, CubicSpline, Libm, D, T>> {
+    ) -> Result<Solver<'_, S, CubicSpline, Host, D, T>> {
         Ok(Solver::new_with(
             exec,
             self.params,
@@ -540,7 +540,7 @@ fn periodic_box<S, E>(cfg: &BenchConfig, exec: &E, beta: f64) -> Result<BenchRep
 where
     S: Space<Real = f64>,
     E: Executor,
-    Libm: sph_core::math::Math<S::Real>,
+    Host: sph_core::math::Math<S::Real>,
 {
     let options = BoxOptions {
         beta,
@@ -581,7 +581,7 @@ fn couette<E: Executor>(cfg: &BenchConfig, exec: &E) -> Result<BenchReport> {
     .with_periodic(0)?
     .with_wall(1, Side::Lower, Wall::no_slip())?
     .with_wall(1, Side::Upper, Wall::moving(Vector::new([u, 0.0])))?;
-    let cells = Solver::<D2<f64>, CubicSpline, Libm, SummationDensity, BoxForces>::cells_needed(
+    let cells = Solver::<D2<f64>, CubicSpline, Host, SummationDensity, BoxForces>::cells_needed(
         &domain, h,
     )?;
     // Ghost rows within the list radius of each wall, plus one.
@@ -609,7 +609,7 @@ fn couette<E: Executor>(cfg: &BenchConfig, exec: &E) -> Result<BenchReport> {
     .with_reorder_every(cfg.reorder_every)
     .with_skin(cfg.skin);
     let forces = (PressureGradient, MorrisViscosity { mu: nu * rho0 });
-    let mut solver = Solver::<D2<f64>, CubicSpline, Libm, _, _>::new_with(
+    let mut solver = Solver::<D2<f64>, CubicSpline, Host, _, _>::new_with(
         exec,
         params,
         domain,

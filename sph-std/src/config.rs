@@ -183,7 +183,9 @@ named_enum!(
 named_enum!(
     /// Math backend for square roots and exponentials.
     MathBackend {
-        /// Portable libm (both precisions).
+        /// libm's functions, both precisions, with the square root from the
+        /// compiler (`sph_std::math::Host`: the same bits, without libm's
+        /// inline assembly).
         Libm => "libm",
         /// micromath's fast approximations (f32 only).
         Micromath => "micromath",

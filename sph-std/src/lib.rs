@@ -24,6 +24,7 @@ pub mod distributed;
 pub mod driver;
 pub mod error;
 pub mod exact;
+pub mod math;
 pub mod output;
 pub mod plot;
 pub mod progress;

@@ -21,9 +21,9 @@ use sph_core::exec::{Executor, Serial};
 use sph_core::kernel::{CubicSpline, Kernel, QuinticSpline, SmoothingKernel};
 #[cfg(feature = "full")]
 use sph_core::kernel::{Gaussian, WendlandC2, WendlandC4};
+use sph_core::math::Math;
 #[cfg(feature = "full")]
 use sph_core::math::Micromath;
-use sph_core::math::{Libm, Math};
 #[cfg(feature = "full")]
 use sph_core::prelude::D3;
 use sph_core::prelude::{
@@ -45,6 +45,7 @@ use crate::driver::Buffers;
 use crate::driver::Rayon;
 use crate::error::{Error, Result};
 use crate::exact::ExactSum;
+use crate::math::Host;
 use sph_core::solver::Limits;
 
 /// A velocity field `v(x, t)` in global coordinates (unused components zero).
@@ -948,17 +949,17 @@ fn estimate_particles(scene: &Scene) -> usize {
 fn by_dim<E: Executor>(scene: &Scene, exec: &E, ctl: &mut RunControl<'_>) -> Result<RunRecord> {
     let p = scene.physics;
     match (scene.dim, p.precision, p.math) {
-        (2, Precision::F64, MathBackend::Libm) => by_kernel::<D2<f64>, Libm, E>(scene, exec, ctl),
+        (2, Precision::F64, MathBackend::Libm) => by_kernel::<D2<f64>, Host, E>(scene, exec, ctl),
         #[cfg(feature = "full")]
-        (2, Precision::F32, MathBackend::Libm) => by_kernel::<D2<f32>, Libm, E>(scene, exec, ctl),
+        (2, Precision::F32, MathBackend::Libm) => by_kernel::<D2<f32>, Host, E>(scene, exec, ctl),
         #[cfg(feature = "full")]
         (2, Precision::F32, MathBackend::Micromath) => {
             by_kernel::<D2<f32>, Micromath, E>(scene, exec, ctl)
         }
         #[cfg(feature = "full")]
-        (3, Precision::F64, MathBackend::Libm) => by_kernel::<D3<f64>, Libm, E>(scene, exec, ctl),
+        (3, Precision::F64, MathBackend::Libm) => by_kernel::<D3<f64>, Host, E>(scene, exec, ctl),
         #[cfg(feature = "full")]
-        (3, Precision::F32, MathBackend::Libm) => by_kernel::<D3<f32>, Libm, E>(scene, exec, ctl),
+        (3, Precision::F32, MathBackend::Libm) => by_kernel::<D3<f32>, Host, E>(scene, exec, ctl),
         _ => Err(Error::config(
             "math",
             format!("{} in {}D with {}", p.math, scene.dim, p.precision),
