@@ -252,7 +252,9 @@ mod steps {
     const SIDE: usize = 200;
 
     /// Host square root (the compiler's intrinsic, correctly rounded as
-    /// libm's), libm for the rest.
+    /// libm's), libm for the rest: the `f64` half of `sph_std::math::Host`,
+    /// written again here because the core's benches cannot depend on the
+    /// frontend (it depends on the core).
     #[derive(Clone, Copy, Debug, Default)]
     struct Host;
     impl Math<f64> for Host {
