@@ -613,6 +613,9 @@ impl<S: Space, K: Kernel, M: Math<S::Real>> Pass<'_, S, K, M> {
             let mut r2s = [S::Real::ZERO; BATCH];
             let mut ws = [S::Real::ZERO; BATCH];
             let mut fs = [S::Real::ZERO; BATCH];
+            // Lanes past a short last chunk hold zero separations: their
+            // values are computed (the loop keeps its fixed length) and
+            // never read.
             for k in 0..BATCH {
                 r2s[k] = rs[k].norm2();
                 (ws[k], fs[k]) = self.kernel_values::<T>(r2s[k]);
@@ -2552,8 +2555,10 @@ mod tests {
     use std::vec;
     use std::vec::Vec;
 
-    /// The compiler's square root (a vector instruction in lanes), libm for
-    /// the rest: what sph-std runs on.
+    /// The compiler's square root (taken in `f64`, which rounds an `f32`
+    /// root exactly as `f32::sqrt`), libm for the rest: the bits of
+    /// `sph_std::math::Host` and of the core bench's `Host`, written again
+    /// here because the core cannot depend on the frontend.
     #[derive(Clone, Copy, Debug, Default)]
     struct HostSqrt;
     impl<F: Real> Math<F> for HostSqrt
