@@ -75,7 +75,9 @@ fn pos<F: Real>(x: F) -> F {
 /// `if c { a } else { b }` for finite `a`, `b`, as arithmetic:
 /// `[c] a + [!c] b` with exact 0/1 weights. A plain `if` on floats can be
 /// compiled into a branch (LLVM does so when an operand holds a division),
-/// and branches on `q` mispredict in the pair loop.
+/// and branches on `q` mispredict in the pair loop. The weight is a
+/// conversion of the bool, not `if c { 1 } else { 0 }`: LLVM compiled that
+/// into a branch too, and the step ran 25-38 % slower (ARCHITECTURE.md).
 #[inline(always)]
 fn select<F: Real>(c: bool, a: F, b: F) -> F {
     let w = F::from_usize(usize::from(c));
