@@ -95,13 +95,25 @@ fn sph(side: usize, steps: usize, preset: Preset) -> Result<bench::BenchReport, 
 
 fn main() {
     let args = Args::parse();
-    if args.side < 10 || args.rounds == 0 || args.salva_steps == 0 || args.sph_steps == 0 {
-        eprintln!("error: --side must be at least 10, and --rounds and the step counts positive");
-        std::process::exit(2);
+    for (name, value, least) in [
+        ("--side", args.side, 10),
+        ("--rounds", args.rounds, 1),
+        ("--salva-steps", args.salva_steps, 1),
+        ("--sph-steps", args.sph_steps, 1),
+    ] {
+        if value < least {
+            eprintln!("error: {name} = {value}: must be at least {least}");
+            std::process::exit(2);
+        }
     }
     println!(
-        "{:>5}  {:>22}  {:>18}  {:>18}  {:>10}  {:>10}",
-        "round", "salva2d DFSPH (substeps)", "sph default", "sph fast", "default/s", "fast/s"
+        "{:>5}  {:>22}  {:>18}  {:>18}  {:>13}  {:>10}",
+        "round",
+        "salva2d DFSPH (substeps)",
+        "sph default",
+        "sph fast",
+        "default/salva",
+        "fast/salva"
     );
     let mut n = 0;
     for round in 1..=args.rounds {
@@ -117,7 +129,7 @@ fn main() {
         };
         n = d.n;
         println!(
-            "{round:>5}  {:>14.3e} ({substeps:>5})  {:>18.3e}  {:>18.3e}  {:>9.1}x  {:>9.1}x",
+            "{round:>5}  {:>14.3e} ({substeps:>5})  {:>18.3e}  {:>18.3e}  {:>12.1}x  {:>9.1}x",
             s,
             d.particle_steps_per_s,
             f.particle_steps_per_s,
