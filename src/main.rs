@@ -730,13 +730,18 @@ struct BenchArgs {
     #[arg(long, value_name = "N")]
     n: Option<usize>,
     /// Threads; 0 = all cores, 1 = serial without rayon [default: 1].
-    #[arg(long, value_name = "T", default_value_t = 1, hide_default_value = true)]
+    #[arg(
+        long,
+        value_name = "T",
+        default_value_t = bench::BenchConfig::default().threads,
+        hide_default_value = true
+    )]
     threads: usize,
     /// Timed steps [default: 100].
     #[arg(
         long,
         value_name = "S",
-        default_value_t = 100,
+        default_value_t = bench::BenchConfig::default().steps,
         hide_default_value = true
     )]
     steps: usize,
@@ -744,12 +749,17 @@ struct BenchArgs {
     #[arg(
         long,
         value_name = "S",
-        default_value_t = 300,
+        default_value_t = bench::BenchConfig::default().warmup,
         hide_default_value = true
     )]
     warmup: usize,
     /// Reorder particles by cell every this many neighbour builds; 0 = never [default: 1].
-    #[arg(long, value_name = "K", default_value_t = 1, hide_default_value = true)]
+    #[arg(
+        long,
+        value_name = "K",
+        default_value_t = bench::BenchConfig::default().reorder_every,
+        hide_default_value = true
+    )]
     reorder_every: u32,
     /// Scan cells in every pass instead of using Verlet neighbour lists.
     #[arg(long)]
@@ -758,7 +768,7 @@ struct BenchArgs {
     #[arg(
         long,
         value_name = "F",
-        default_value_t = 0.1,
+        default_value_t = bench::BenchConfig::default().skin,
         hide_default_value = true
     )]
     skin: f64,
@@ -861,7 +871,7 @@ fn run_bench(args: &BenchArgs) -> Result<()> {
     let config = bench::BenchConfig {
         scene,
         preset: args.preset,
-        n: args.n.unwrap_or(40_000),
+        n: args.n.unwrap_or(bench::BenchConfig::default().n),
         threads: sane_threads(args.threads),
         steps: args.steps,
         warmup: args.warmup,

@@ -90,11 +90,10 @@ pub enum Preset {
     /// Morris viscosity, no density diffusion: the configuration a user
     /// would pick for speed. Measured (ARCHITECTURE.md), it runs 10-30 %
     /// faster than the default in most sittings, not twice as fast: most of
-    /// the density pass
-    /// it saves is spent again in the force pass, which must test every
-    /// list entry against the support (summation density's pass sorts each
-    /// row's entries inside the support to the front, so its force pass
-    /// skips that test).
+    /// the density pass it saves is spent again in the force pass, which
+    /// must test every list entry against the support (summation density's
+    /// pass sorts each row's entries inside the support to the front, so
+    /// its force pass skips that test).
     Fast,
 }
 
@@ -145,6 +144,26 @@ pub struct BenchConfig {
     /// Start from a random particle order instead of the lattice's row order
     /// (the case cell reordering is for).
     pub shuffle: bool,
+}
+
+impl Default for BenchConfig {
+    /// What `sph bench` runs without flags: the 2D box of 40,000 particles,
+    /// default preset, one thread, 100 timed steps after 300, reordered at
+    /// every list build, Verlet lists with a skin of 0.1, lattice order.
+    fn default() -> Self {
+        BenchConfig {
+            scene: Scene::Box2d,
+            preset: Preset::Default,
+            n: 40_000,
+            threads: 1,
+            steps: 100,
+            warmup: 300,
+            reorder_every: 1,
+            lists: true,
+            skin: 0.1,
+            shuffle: false,
+        }
+    }
 }
 
 /// What a benchmark measured.

@@ -29,7 +29,7 @@ use salva2d::kernel::CubicSplineKernel;
 use salva2d::object::Fluid;
 use salva2d::solver::DFSPHSolver;
 use salva2d::LiquidWorld;
-use sph_std::bench::{self, BenchConfig, Preset, Scene};
+use sph_std::bench::{self, BenchConfig, Preset};
 
 /// Times sph's 2D box and salva2d's DFSPH on the same block, alternating.
 #[derive(Parser, Debug)]
@@ -76,19 +76,14 @@ fn salva(side: usize, steps: usize) -> (f64, usize) {
     ((n * steps) as f64 / start.elapsed().as_secs_f64(), substeps)
 }
 
-/// `sph bench --n side^2 --threads 1` with the given preset and step count.
+/// `sph bench --n side^2 --steps steps --preset preset` (its other settings
+/// at their defaults: the 2D box, one thread, Verlet lists).
 fn sph(side: usize, steps: usize, preset: Preset) -> Result<bench::BenchReport, String> {
     bench::run(&BenchConfig {
-        scene: Scene::Box2d,
         preset,
         n: side * side,
-        threads: 1,
         steps,
-        warmup: 300,
-        reorder_every: 1,
-        lists: true,
-        skin: 0.1,
-        shuffle: false,
+        ..BenchConfig::default()
     })
     .map_err(|e| e.to_string())
 }
